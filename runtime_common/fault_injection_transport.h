@@ -1,0 +1,111 @@
+// In-process network fault injection (Linux netem is not available here): a Fast DDS
+// ChainingTransport that wraps the real UDPv4 transport and, for every datagram this
+// participant RECEIVES, drops it with probability `drop_probability` and delivers the rest
+// after `delay_ms` (+ uniform jitter) from a delivery thread owned by the transport.
+// Receive-side injection covers both directions of a link as soon as both peers enable it
+// (data one way, ACKNACK/heartbeats the other way). Discovery traffic is affected too,
+// exactly as on a real lossy link.
+#pragma once
+
+#include <fastdds/rtps/transport/ChainingTransport.h>
+#include <fastdds/rtps/transport/ChainingTransportDescriptor.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <queue>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace ccm::rt {
+
+struct FaultOptions {
+  double drop_probability = 0.0;  // [0, 1): probability that one received datagram is lost
+  double delay_ms = 0.0;          // one-way delay added to every delivered datagram
+  double jitter_ms = 0.0;         // uniform extra delay in [0, jitter_ms]
+  std::uint64_t seed = 1;         // random seed (fault pattern reproducible per process)
+
+  bool enabled() const { return drop_probability > 0.0 || delay_ms > 0.0 || jitter_ms > 0.0; }
+  /// Empty string when valid, otherwise what is wrong.
+  std::string Validate() const;
+  /// Reads CCM_FAULT_DROP, CCM_FAULT_DELAY_MS, CCM_FAULT_JITTER_MS, CCM_FAULT_SEED.
+  /// Unset variables keep the defaults; malformed values yield an error message.
+  static std::optional<FaultOptions> FromEnvironment(std::string* error);
+  std::string ToString() const;
+};
+
+/// Counters of everything the fault transport saw (process-wide totals of one participant).
+struct FaultCounters {
+  std::atomic<std::uint64_t> datagrams_received{0};
+  std::atomic<std::uint64_t> datagrams_dropped{0};
+  std::atomic<std::uint64_t> bytes_received{0};
+  std::atomic<std::uint64_t> datagrams_sent{0};
+  std::atomic<std::uint64_t> bytes_sent{0};
+};
+
+class FaultInjectionTransportDescriptor : public eprosima::fastdds::rtps::ChainingTransportDescriptor {
+ public:
+  FaultInjectionTransportDescriptor(
+      std::shared_ptr<eprosima::fastdds::rtps::TransportDescriptorInterface> low_level,
+      FaultOptions options, std::shared_ptr<FaultCounters> counters);
+  eprosima::fastdds::rtps::TransportInterface* create_transport() const override;
+
+  FaultOptions options;
+  std::shared_ptr<FaultCounters> counters;
+};
+
+class FaultInjectionTransport : public eprosima::fastdds::rtps::ChainingTransport {
+ public:
+  explicit FaultInjectionTransport(const FaultInjectionTransportDescriptor& descriptor);
+  ~FaultInjectionTransport() override;
+
+  eprosima::fastdds::rtps::TransportDescriptorInterface* get_configuration() override {
+    return &descriptor_;
+  }
+  bool CloseInputChannel(const eprosima::fastrtps::rtps::Locator_t& locator) override;
+
+  bool send(eprosima::fastrtps::rtps::SenderResource* low_sender_resource,
+            const eprosima::fastrtps::rtps::octet* send_buffer, uint32_t send_buffer_size,
+            eprosima::fastrtps::rtps::LocatorsIterator* destination_locators_begin,
+            eprosima::fastrtps::rtps::LocatorsIterator* destination_locators_end,
+            const std::chrono::steady_clock::time_point& timeout) override;
+
+  void receive(eprosima::fastdds::rtps::TransportReceiverInterface* next_receiver,
+               const eprosima::fastrtps::rtps::octet* receive_buffer, uint32_t receive_buffer_size,
+               const eprosima::fastrtps::rtps::Locator_t& local_locator,
+               const eprosima::fastrtps::rtps::Locator_t& remote_locator) override;
+
+ private:
+  struct Pending {
+    std::chrono::steady_clock::time_point due;
+    std::uint64_t sequence;  // FIFO among equal due times
+    eprosima::fastdds::rtps::TransportReceiverInterface* receiver;
+    std::vector<eprosima::fastrtps::rtps::octet> data;
+    eprosima::fastrtps::rtps::Locator_t local_locator;
+    eprosima::fastrtps::rtps::Locator_t remote_locator;
+    bool operator>(const Pending& o) const {
+      return due != o.due ? due > o.due : sequence > o.sequence;
+    }
+  };
+
+  void DeliveryLoop();
+
+  FaultInjectionTransportDescriptor descriptor_;
+  std::mutex rng_mutex_;
+  std::mt19937_64 rng_;
+  // Lock order: deliver_mutex_ before queue_mutex_ (CloseInputChannel takes both).
+  std::mutex deliver_mutex_;
+  std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::priority_queue<Pending, std::vector<Pending>, std::greater<Pending>> queue_;
+  std::uint64_t next_sequence_ = 0;
+  bool stopping_ = false;
+  std::thread delivery_thread_;  // owned here: started in the constructor, joined in the destructor
+};
+
+}  // namespace ccm::rt

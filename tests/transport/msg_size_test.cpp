@@ -1,0 +1,88 @@
+// Wire sizes of the protocol types against the CCM-SLAM budget (docs/architecture.md),
+// and exact serialize/deserialize round trips.
+#include <gtest/gtest.h>
+
+#include "idl/ccm_msgsPubSubTypes.h"
+#include "tests/transport/synthetic_msgs.h"
+
+namespace ccm {
+namespace {
+
+template <typename PubSubT>
+std::uint32_t SerializedSize(typename PubSubT::type& msg, typename PubSubT::type* round_trip = nullptr) {
+  PubSubT type;
+  const std::uint32_t size = type.getSerializedSizeProvider(&msg)();
+  eprosima::fastrtps::rtps::SerializedPayload_t payload(size);
+  EXPECT_TRUE(type.serialize(&msg, &payload));
+  EXPECT_EQ(payload.length, size);
+  if (round_trip != nullptr) {
+    EXPECT_TRUE(type.deserialize(&payload, round_trip));
+  }
+  return payload.length;
+}
+
+TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout55kB) {
+  msg::KeyframeFull kf = testing::MakeKeyframe(3, 7, 1000, 300);
+  msg::KeyframeFull back;
+  const auto bytes = SerializedSize<msg::KeyframeFullPubSubType>(kf, &back);
+  // 1000 x (20 B keypoint + 32 B descriptor) + 300 x 10 B associations + header/poses.
+  EXPECT_GE(bytes, 52000u);
+  EXPECT_LE(bytes, 56000u);
+  EXPECT_TRUE(back == kf);
+  RecordProperty("keyframe_bytes", static_cast<int>(bytes));
+}
+
+TEST(MsgSize, KeypointCostsTwentyBytes) {
+  msg::KeyframeFull a = testing::MakeKeyframe(1, 1, 100, 0);
+  msg::KeyframeFull b = testing::MakeKeyframe(1, 1, 200, 0);
+  const auto sa = SerializedSize<msg::KeyframeFullPubSubType>(a);
+  const auto sb = SerializedSize<msg::KeyframeFullPubSubType>(b);
+  EXPECT_EQ(sb - sa, 100u * (20u + 32u));  // keypoint + descriptor per feature
+}
+
+TEST(MsgSize, KeyframeUpdateFitsIn148Bytes) {
+  msg::KeyframeUpdate u = testing::MakeKeyframeUpdate(2, 9);
+  msg::KeyframeUpdate back;
+  EXPECT_LE(SerializedSize<msg::KeyframeUpdatePubSubType>(u, &back), 148u);
+  EXPECT_TRUE(back == u);
+  EXPECT_LE(msg::KeyframeUpdatePubSubType().m_typeSize, 148u + 4u);  // bounded type, incl. padding
+}
+
+TEST(MsgSize, MapPointUpdateFitsIn52Bytes) {
+  msg::MapPointUpdate u = testing::MakeMapPointUpdate(2, 9);
+  msg::MapPointUpdate back;
+  EXPECT_LE(SerializedSize<msg::MapPointUpdatePubSubType>(u, &back), 52u);
+  EXPECT_TRUE(back == u);
+}
+
+TEST(MsgSize, FullMapPointAbout200Bytes) {
+  msg::MapPointFull mp = testing::MakeMapPoint(4, 11, 5);
+  msg::MapPointFull back;
+  const auto bytes = SerializedSize<msg::MapPointFullPubSubType>(mp, &back);
+  EXPECT_LE(bytes, 200u);
+  EXPECT_GE(bytes, 100u);
+  EXPECT_TRUE(back == mp);
+}
+
+TEST(MsgSize, StatusAndServerMessagesRoundTrip) {
+  msg::AgentStatus s = testing::MakeAgentStatus(5, 3), s_back;
+  EXPECT_LE(SerializedSize<msg::AgentStatusPubSubType>(s, &s_back), 128u);
+  EXPECT_TRUE(s_back == s);
+  // k = 5 keyframes sent back per server message (CCM-SLAM), with their map points.
+  msg::ServerToAgent m = testing::MakeServerToAgent(1, 5, 1000, 1500, 50), m_back;
+  const auto bytes = SerializedSize<msg::ServerToAgentPubSubType>(m, &m_back);
+  EXPECT_LE(bytes, 5u * 56000u + 1500u * 200u + 1000u);
+  EXPECT_TRUE(m_back == m);
+}
+
+TEST(MsgSize, EveryTopLevelTypeCarriesTheProtocolVersion) {
+  EXPECT_EQ(testing::MakeKeyframe(1, 0, 10, 1).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(testing::MakeMapPoint(1, 0, 1).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(testing::MakeKeyframeUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(testing::MakeMapPointUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(testing::MakeAgentStatus(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(testing::MakeServerToAgent(1, 0, 0, 0, 0).protocol_version(), msg::kProtocolVersion);
+}
+
+}  // namespace
+}  // namespace ccm

@@ -1,0 +1,134 @@
+#include "tests/transport/synthetic_msgs.h"
+
+#include <cmath>
+#include <random>
+
+#include "slam_core/common/ids.h"
+
+namespace ccm::testing {
+namespace {
+
+msg::Pose RandomPose(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  double q[4] = {n(rng), n(rng), n(rng), n(rng)};
+  const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  msg::Pose p;
+  p.tx(n(rng)); p.ty(n(rng)); p.tz(n(rng));
+  p.qx(q[0] / norm); p.qy(q[1] / norm); p.qz(q[2] / norm); p.qw(q[3] / norm);
+  return p;
+}
+
+msg::OrbDescriptor RandomDescriptor(std::mt19937_64& rng) {
+  msg::OrbDescriptor d;
+  for (auto& byte : d.data()) byte = static_cast<std::uint8_t>(rng());
+  return d;
+}
+
+std::uint64_t Seed(std::uint16_t agent, std::uint64_t index, std::uint64_t kind) {
+  return (std::uint64_t{agent} << 48) ^ (index * 0x9E3779B97F4A7C15ull) ^ (kind << 40);
+}
+
+}  // namespace
+
+msg::KeyframeFull MakeKeyframe(std::uint16_t agent, std::uint64_t index, int num_features, int num_associations) {
+  std::mt19937_64 rng(Seed(agent, index, 1));
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  msg::KeyframeFull kf;
+  kf.protocol_version(msg::kProtocolVersion);
+  kf.agent_id(agent);
+  kf.id(KeyframeId::Make(agent, index + 1).packed());
+  kf.stamp_ns(static_cast<long long>(index) * 100000000LL);
+  msg::CameraInfo& cam = kf.camera();
+  cam.model(0); cam.width_px(752); cam.height_px(480);
+  cam.fx(458.654f); cam.fy(457.296f); cam.cx(367.215f); cam.cy(248.375f);
+  cam.distortion({-0.28340811f, 0.07395907f, 0.00019359f, 1.76187114e-05f});
+  kf.keypoints().resize(num_features);
+  kf.descriptors().resize(num_features);
+  for (int i = 0; i < num_features; ++i) {
+    msg::Keypoint& k = kf.keypoints()[i];
+    k.x_px(752.0f * u(rng)); k.y_px(480.0f * u(rng)); k.angle_deg(360.0f * u(rng));
+    k.response(u(rng)); k.octave(static_cast<std::uint8_t>(rng() % 8));
+    kf.descriptors()[i] = RandomDescriptor(rng);
+  }
+  for (int i = 0; i < num_associations && i < num_features; ++i) {
+    kf.mp_keypoint_index().push_back(static_cast<std::uint16_t>(i));
+    kf.mp_ids().push_back(MapPointId::Make(agent, index * 1000 + i + 1).packed());
+  }
+  kf.predecessor_id(index == 0 ? 0 : KeyframeId::Make(agent, index).packed());
+  kf.pred_from_this(RandomPose(rng));
+  kf.parent_id(kf.predecessor_id());
+  kf.parent_from_this(RandomPose(rng));
+  return kf;
+}
+
+std::uint64_t KeyframeCounter(const msg::KeyframeFull& kf) { return KeyframeId(kf.id()).counter() - 1; }
+
+msg::MapPointFull MakeMapPoint(std::uint16_t agent, std::uint64_t index, int num_observations) {
+  std::mt19937_64 rng(Seed(agent, index, 2));
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  msg::MapPointFull mp;
+  mp.protocol_version(msg::kProtocolVersion);
+  mp.agent_id(agent);
+  mp.id(MapPointId::Make(agent, index + 1).packed());
+  mp.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
+  mp.x_ref(n(rng)); mp.y_ref(n(rng)); mp.z_ref(3.0f + n(rng));
+  for (int i = 0; i < num_observations; ++i) {
+    mp.obs_kf_ids().push_back(KeyframeId::Make(agent, index / 100 + 1 + i).packed());
+    mp.obs_keypoint_index().push_back(static_cast<std::uint16_t>(rng() % 1000));
+  }
+  mp.descriptor(RandomDescriptor(rng));
+  mp.nx(0.0f); mp.ny(0.0f); mp.nz(1.0f);
+  mp.min_depth_m(1.0f); mp.max_depth_m(8.0f);
+  return mp;
+}
+
+msg::KeyframeUpdate MakeKeyframeUpdate(std::uint16_t agent, std::uint64_t index) {
+  std::mt19937_64 rng(Seed(agent, index, 3));
+  msg::KeyframeUpdate u;
+  u.protocol_version(msg::kProtocolVersion);
+  u.agent_id(agent);
+  u.id(KeyframeId::Make(agent, index + 1).packed());
+  u.predecessor_id(KeyframeId::Make(agent, index).packed());
+  u.parent_id(KeyframeId::Make(agent, index).packed());
+  u.pred_from_this(RandomPose(rng));
+  u.parent_from_this(RandomPose(rng));
+  return u;
+}
+
+msg::MapPointUpdate MakeMapPointUpdate(std::uint16_t agent, std::uint64_t index) {
+  std::mt19937_64 rng(Seed(agent, index, 4));
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  msg::MapPointUpdate u;
+  u.protocol_version(msg::kProtocolVersion);
+  u.agent_id(agent);
+  u.id(MapPointId::Make(agent, index + 1).packed());
+  u.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
+  u.x_ref(n(rng)); u.y_ref(n(rng)); u.z_ref(n(rng));
+  return u;
+}
+
+msg::AgentStatus MakeAgentStatus(std::uint16_t agent, std::uint64_t index) {
+  msg::AgentStatus s;
+  s.protocol_version(msg::kProtocolVersion);
+  s.agent_id(agent);
+  s.stamp_ns(static_cast<long long>(index) * 500000000LL);
+  s.ref_kf_id(KeyframeId::Make(agent, index + 1).packed());
+  s.map_segment_id(MapId::Make(agent, 1).packed());
+  s.kfs_created(static_cast<std::uint32_t>(index));
+  s.tracking_state(1);
+  return s;
+}
+
+msg::ServerToAgent MakeServerToAgent(std::uint16_t agent, int num_keyframes, int features_per_kf,
+                                     int num_map_points, int num_acks) {
+  msg::ServerToAgent m;
+  m.protocol_version(msg::kProtocolVersion);
+  m.agent_id(agent);
+  m.ref_kf_id(KeyframeId::Make(agent, 1).packed());
+  for (int i = 0; i < num_acks; ++i) m.acked_kf_ids().push_back(KeyframeId::Make(agent, i + 1).packed());
+  for (int i = 0; i < num_keyframes; ++i) m.keyframes().push_back(MakeKeyframe(agent + 1, i, features_per_kf, features_per_kf / 3));
+  for (int i = 0; i < num_map_points; ++i) m.map_points().push_back(MakeMapPoint(agent + 1, i, 4));
+  return m;
+}
+
+}  // namespace ccm::testing
