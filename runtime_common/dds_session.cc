@@ -97,7 +97,7 @@ std::unique_ptr<DdsSession> DdsSession::Create(const SessionOptions& options, st
   qos.name(options.participant_name);
   std::unique_ptr<DdsSession> session(new DdsSession(options));
   session->options_.qos_file = qos_file;
-  if (options.fault.enabled()) InstallFaultTransport(&qos, options.fault, session->fault_counters_);
+  if (options.fault.enabled() || options.count_wire) InstallFaultTransport(&qos, options.fault, session->fault_counters_);
   session->participant_ = factory->create_participant(options.domain_id, qos);
   if (session->participant_ == nullptr) {
     *error = "could not create the DDS participant on domain " + std::to_string(options.domain_id);

@@ -32,6 +32,9 @@ struct SessionOptions {
   std::string participant_profile = "ccm_participant";
   std::string participant_name = "ccm";
   FaultOptions fault;
+  /// Install the (pass-through) fault transport even without faults, to count datagrams
+  /// and bytes on the wire (benchmarks, diagnostics).
+  bool count_wire = false;
 };
 
 /// Loads an XML profiles file with a clear error for a missing file or a parse failure.

@@ -100,8 +100,6 @@ bool FaultInjectionTransport::send(eprosima::fastrtps::rtps::SenderResource* low
                                    eprosima::fastrtps::rtps::LocatorsIterator* destination_locators_begin,
                                    eprosima::fastrtps::rtps::LocatorsIterator* destination_locators_end,
                                    const std::chrono::steady_clock::time_point& timeout) {
-  descriptor_.counters->datagrams_sent++;
-  descriptor_.counters->bytes_sent += send_buffer_size;
   return low_sender_resource->send(send_buffer, send_buffer_size, destination_locators_begin,
                                    destination_locators_end, timeout);
 }

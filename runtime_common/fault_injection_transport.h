@@ -39,13 +39,13 @@ struct FaultOptions {
   std::string ToString() const;
 };
 
-/// Counters of everything the fault transport saw (process-wide totals of one participant).
+/// Counters of every datagram that reached one participant (before the drop decision).
+/// Wire traffic is measured on arrival: on the send side Fast DDS hands each datagram to
+/// every sender resource (one per interface), which would count it several times.
 struct FaultCounters {
   std::atomic<std::uint64_t> datagrams_received{0};
   std::atomic<std::uint64_t> datagrams_dropped{0};
   std::atomic<std::uint64_t> bytes_received{0};
-  std::atomic<std::uint64_t> datagrams_sent{0};
-  std::atomic<std::uint64_t> bytes_sent{0};
 };
 
 class FaultInjectionTransportDescriptor : public eprosima::fastdds::rtps::ChainingTransportDescriptor {

@@ -40,8 +40,7 @@ struct ProbeOptions {
 nlohmann::json FaultJson(const DdsSession& session) {
   const auto& f = session.fault_counters();
   return {{"datagrams_received", f.datagrams_received.load()}, {"datagrams_dropped", f.datagrams_dropped.load()},
-          {"bytes_received", f.bytes_received.load()},         {"datagrams_sent", f.datagrams_sent.load()},
-          {"bytes_sent", f.bytes_sent.load()}};
+          {"bytes_received", f.bytes_received.load()}};
 }
 
 nlohmann::json TrafficJson(const DdsSession& session) {
