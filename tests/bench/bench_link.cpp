@@ -11,7 +11,7 @@
 #include "runtime_common/dds_session.h"
 #include "runtime_common/topics.h"
 #include "runtime_common/typed_endpoints.h"
-#include "tests/transport/synthetic_msgs.h"
+#include "runtime_common/synthetic_msgs.h"
 
 namespace {
 
@@ -78,21 +78,21 @@ int main(int argc, char** argv) {
   const auto wire_before = sub->fault_counters().bytes_received.load();
   double s = Stream<msg::KeyframeFullPubSubType>(*pub, *sub, rt::kTopicKeyframes, rt::kProfileNewDataWriter,
                                                  rt::kProfileNewDataReader, keyframes,
-                                                 [&](int i) { return testing::MakeKeyframe(1, i, features, 300); }, &got);
+                                                 [&](int i) { return synthetic::MakeKeyframe(1, i, features, 300); }, &got);
   row(rt::kTopicKeyframes, keyframes, got, s);
   const double kf_wire_mb = (sub->fault_counters().bytes_received.load() - wire_before) / 1e6;
   const double kf_payload_mb = pub->TrafficSnapshot().front().payload_bytes / 1e6;
   s = Stream<msg::MapPointFullPubSubType>(*pub, *sub, rt::kTopicMapPoints, rt::kProfileNewDataWriter,
                                           rt::kProfileNewDataReader, 2000,
-                                          [](int i) { return testing::MakeMapPoint(1, i, 5); }, &got);
+                                          [](int i) { return synthetic::MakeMapPoint(1, i, 5); }, &got);
   row(rt::kTopicMapPoints, 2000, got, s);
   s = Stream<msg::KeyframeUpdatePubSubType>(*pub, *sub, rt::kTopicKeyframeUpdates, rt::kProfileUpdateWriter,
                                             rt::kProfileUpdateReader, 200,
-                                            [](int i) { return testing::MakeKeyframeUpdate(1, i); }, &got);
+                                            [](int i) { return synthetic::MakeKeyframeUpdate(1, i); }, &got);
   row(rt::kTopicKeyframeUpdates, 200, got, s);
   s = Stream<msg::MapPointUpdatePubSubType>(*pub, *sub, rt::kTopicMapPointUpdates, rt::kProfileUpdateWriter,
                                             rt::kProfileUpdateReader, 2000,
-                                            [](int i) { return testing::MakeMapPointUpdate(1, i); }, &got);
+                                            [](int i) { return synthetic::MakeMapPointUpdate(1, i); }, &got);
   row(rt::kTopicMapPointUpdates, 2000, got, s);
   std::printf("\nkeyframe burst: %.2f MB payload, %.2f MB on the wire (UDP payload incl. RTPS headers)\n",
               kf_payload_mb, kf_wire_mb);

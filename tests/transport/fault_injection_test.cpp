@@ -7,7 +7,7 @@
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
 #include "runtime_common/typed_endpoints.h"
-#include "tests/transport/synthetic_msgs.h"
+#include "runtime_common/synthetic_msgs.h"
 
 namespace ccm {
 namespace {
@@ -65,7 +65,7 @@ TEST(FaultInjection, DropsTheConfiguredFractionOfDatagrams) {
   ASSERT_TRUE(reader->WaitForMatch(1, std::chrono::seconds(20)));
   const int kCount = 1500;
   for (int i = 0; i < kCount; ++i) {
-    ASSERT_TRUE(writer->Write(testing::MakeKeyframeUpdate(1, i)));
+    ASSERT_TRUE(writer->Write(synthetic::MakeKeyframeUpdate(1, i)));
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   int received = 0;
@@ -93,7 +93,7 @@ TEST(FaultInjection, DelaysEveryDeliveredDatagram) {
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   int measured = 0;
   for (int i = 0; i < 10; ++i) {
-    msg::AgentStatus status = testing::MakeAgentStatus(1, i);
+    msg::AgentStatus status = synthetic::MakeAgentStatus(1, i);
     const auto sent = Clock::now();
     ASSERT_TRUE(writer->Write(status));
     auto got = reader->Pop(std::chrono::milliseconds(2000));

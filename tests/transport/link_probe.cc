@@ -17,7 +17,7 @@
 #include "slam_core/common/ids.h"
 #include "runtime_common/topics.h"
 #include "runtime_common/typed_endpoints.h"
-#include "tests/transport/synthetic_msgs.h"
+#include "runtime_common/synthetic_msgs.h"
 
 namespace {
 
@@ -113,8 +113,8 @@ nlohmann::json Run(DdsSession& session, const ProbeOptions& o) {
   namespace rt = ccm::rt;
   using ccm::msg::KeyframeFullPubSubType;
   using ccm::msg::KeyframeUpdatePubSubType;
-  auto make_kf = [&](int i) { return ccm::testing::MakeKeyframe(o.agent, i, o.features, o.associations); };
-  auto make_update = [&](int i) { return ccm::testing::MakeKeyframeUpdate(o.agent, i); };
+  auto make_kf = [&](int i) { return ccm::synthetic::MakeKeyframe(o.agent, i, o.features, o.associations); };
+  auto make_update = [&](int i) { return ccm::synthetic::MakeKeyframeUpdate(o.agent, i); };
   const bool kfs = o.kind == "keyframes";
   if (o.role == "pub") {
     return kfs ? Publish<KeyframeFullPubSubType>(session, o, rt::kTopicKeyframes, rt::kProfileNewDataWriter, make_kf)
@@ -124,7 +124,7 @@ nlohmann::json Run(DdsSession& session, const ProbeOptions& o) {
   if (kfs) {
     return Subscribe<KeyframeFullPubSubType>(
         session, o, rt::kTopicKeyframes, rt::kProfileNewDataReader, rt::OverflowPolicy::kBlock, make_kf,
-        [](const ccm::msg::KeyframeFull& kf) { return static_cast<long long>(ccm::testing::KeyframeCounter(kf)); });
+        [](const ccm::msg::KeyframeFull& kf) { return static_cast<long long>(ccm::synthetic::KeyframeCounter(kf)); });
   }
   return Subscribe<KeyframeUpdatePubSubType>(
       session, o, rt::kTopicKeyframeUpdates, rt::kProfileUpdateReader, rt::OverflowPolicy::kDropOldest, make_update,

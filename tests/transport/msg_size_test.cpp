@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "idl/ccm_msgsPubSubTypes.h"
-#include "tests/transport/synthetic_msgs.h"
+#include "runtime_common/synthetic_msgs.h"
 
 namespace ccm {
 namespace {
@@ -22,7 +22,7 @@ std::uint32_t SerializedSize(typename PubSubT::type& msg, typename PubSubT::type
 }
 
 TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout55kB) {
-  msg::KeyframeFull kf = testing::MakeKeyframe(3, 7, 1000, 300);
+  msg::KeyframeFull kf = synthetic::MakeKeyframe(3, 7, 1000, 300);
   msg::KeyframeFull back;
   const auto bytes = SerializedSize<msg::KeyframeFullPubSubType>(kf, &back);
   // 1000 x (20 B keypoint + 32 B descriptor) + 300 x 10 B associations + header/poses.
@@ -33,15 +33,15 @@ TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout55kB) {
 }
 
 TEST(MsgSize, KeypointCostsTwentyBytes) {
-  msg::KeyframeFull a = testing::MakeKeyframe(1, 1, 100, 0);
-  msg::KeyframeFull b = testing::MakeKeyframe(1, 1, 200, 0);
+  msg::KeyframeFull a = synthetic::MakeKeyframe(1, 1, 100, 0);
+  msg::KeyframeFull b = synthetic::MakeKeyframe(1, 1, 200, 0);
   const auto sa = SerializedSize<msg::KeyframeFullPubSubType>(a);
   const auto sb = SerializedSize<msg::KeyframeFullPubSubType>(b);
   EXPECT_EQ(sb - sa, 100u * (20u + 32u));  // keypoint + descriptor per feature
 }
 
 TEST(MsgSize, KeyframeUpdateFitsIn148Bytes) {
-  msg::KeyframeUpdate u = testing::MakeKeyframeUpdate(2, 9);
+  msg::KeyframeUpdate u = synthetic::MakeKeyframeUpdate(2, 9);
   msg::KeyframeUpdate back;
   EXPECT_LE(SerializedSize<msg::KeyframeUpdatePubSubType>(u, &back), 148u);
   EXPECT_TRUE(back == u);
@@ -49,14 +49,14 @@ TEST(MsgSize, KeyframeUpdateFitsIn148Bytes) {
 }
 
 TEST(MsgSize, MapPointUpdateFitsIn52Bytes) {
-  msg::MapPointUpdate u = testing::MakeMapPointUpdate(2, 9);
+  msg::MapPointUpdate u = synthetic::MakeMapPointUpdate(2, 9);
   msg::MapPointUpdate back;
   EXPECT_LE(SerializedSize<msg::MapPointUpdatePubSubType>(u, &back), 52u);
   EXPECT_TRUE(back == u);
 }
 
 TEST(MsgSize, FullMapPointAbout200Bytes) {
-  msg::MapPointFull mp = testing::MakeMapPoint(4, 11, 5);
+  msg::MapPointFull mp = synthetic::MakeMapPoint(4, 11, 5);
   msg::MapPointFull back;
   const auto bytes = SerializedSize<msg::MapPointFullPubSubType>(mp, &back);
   EXPECT_LE(bytes, 200u);
@@ -65,23 +65,23 @@ TEST(MsgSize, FullMapPointAbout200Bytes) {
 }
 
 TEST(MsgSize, StatusAndServerMessagesRoundTrip) {
-  msg::AgentStatus s = testing::MakeAgentStatus(5, 3), s_back;
+  msg::AgentStatus s = synthetic::MakeAgentStatus(5, 3), s_back;
   EXPECT_LE(SerializedSize<msg::AgentStatusPubSubType>(s, &s_back), 128u);
   EXPECT_TRUE(s_back == s);
   // k = 5 keyframes sent back per server message (CCM-SLAM), with their map points.
-  msg::ServerToAgent m = testing::MakeServerToAgent(1, 5, 1000, 1500, 50), m_back;
+  msg::ServerToAgent m = synthetic::MakeServerToAgent(1, 5, 1000, 1500, 50), m_back;
   const auto bytes = SerializedSize<msg::ServerToAgentPubSubType>(m, &m_back);
   EXPECT_LE(bytes, 5u * 56000u + 1500u * 200u + 1000u);
   EXPECT_TRUE(m_back == m);
 }
 
 TEST(MsgSize, EveryTopLevelTypeCarriesTheProtocolVersion) {
-  EXPECT_EQ(testing::MakeKeyframe(1, 0, 10, 1).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(testing::MakeMapPoint(1, 0, 1).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(testing::MakeKeyframeUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(testing::MakeMapPointUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(testing::MakeAgentStatus(1, 0).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(testing::MakeServerToAgent(1, 0, 0, 0, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(synthetic::MakeKeyframe(1, 0, 10, 1).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(synthetic::MakeMapPoint(1, 0, 1).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(synthetic::MakeKeyframeUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(synthetic::MakeMapPointUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(synthetic::MakeAgentStatus(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(synthetic::MakeServerToAgent(1, 0, 0, 0, 0).protocol_version(), msg::kProtocolVersion);
 }
 
 }  // namespace

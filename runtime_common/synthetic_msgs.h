@@ -1,4 +1,5 @@
-// Deterministic synthetic protocol messages for transport tests and benchmarks: message
+// Deterministic synthetic protocol messages for the link demo, transport tests and
+// benchmarks: message
 // i of a stream is a pure function of (agent, i, features), so a receiver can regenerate
 // what the sender sent and compare field by field.
 #pragma once
@@ -8,7 +9,7 @@
 
 #include "idl/ccm_msgs.h"
 
-namespace ccm::testing {
+namespace ccm::synthetic {
 
 msg::KeyframeFull MakeKeyframe(std::uint16_t agent, std::uint64_t index, int num_features,
                                int num_associations);
@@ -22,4 +23,4 @@ msg::ServerToAgent MakeServerToAgent(std::uint16_t agent, int num_keyframes, int
 /// Stream index encoded in a keyframe id (agent id + counter, counter = index + 1).
 std::uint64_t KeyframeCounter(const msg::KeyframeFull& kf);
 
-}  // namespace ccm::testing
+}  // namespace ccm::synthetic

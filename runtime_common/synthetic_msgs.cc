@@ -1,11 +1,11 @@
-#include "tests/transport/synthetic_msgs.h"
+#include "runtime_common/synthetic_msgs.h"
 
 #include <cmath>
 #include <random>
 
 #include "slam_core/common/ids.h"
 
-namespace ccm::testing {
+namespace ccm::synthetic {
 namespace {
 
 msg::Pose RandomPose(std::mt19937_64& rng) {
@@ -131,4 +131,4 @@ msg::ServerToAgent MakeServerToAgent(std::uint16_t agent, int num_keyframes, int
   return m;
 }
 
-}  // namespace ccm::testing
+}  // namespace ccm::synthetic

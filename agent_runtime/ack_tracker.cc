@@ -1,0 +1,59 @@
+#include "agent_runtime/ack_tracker.h"
+
+namespace ccm::agent {
+
+void AckTracker::OnSent(KeyframeId id, Clock::time_point now) {
+  auto [it, inserted] = entries_.try_emplace(id);
+  it->second.last_sent = now;
+  (void)inserted;
+}
+
+std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now) {
+  for (KeyframeId id : acked) {
+    auto it = entries_.find(id);
+    if (it == entries_.end() || it->second.acked) continue;  // unknown or duplicate ack
+    it->second.acked = true;
+    ++acked_count_;
+  }
+  std::vector<KeyframeId> resend;
+  // Walk in id order: an unacked entry directly followed by an acked one was skipped by
+  // the server (lost or not yet processed): resend it unless it was sent very recently.
+  for (auto it = entries_.begin(); it != entries_.end(); ++it) {
+    auto next = std::next(it);
+    if (next == entries_.end()) break;
+    if (!it->second.acked && next->second.acked && now - it->second.last_sent >= holdoff_) {
+      it->second.last_sent = now;
+      ++resent_count_;
+      resend.push_back(it->first);
+    }
+  }
+  // An acknowledged prefix is never needed again (it cannot be the successor of an
+  // unacknowledged KF): dropping it keeps the tracker bounded by the unacked window.
+  while (!entries_.empty() && entries_.begin()->second.acked) entries_.erase(entries_.begin());
+  return resend;
+}
+
+std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, Clock::time_point now) {
+  std::vector<KeyframeId> out;
+  for (auto& [id, entry] : entries_) {
+    if (!entry.acked && now - entry.last_sent >= timeout) {
+      entry.last_sent = now;
+      ++resent_count_;
+      out.push_back(id);
+    }
+  }
+  return out;
+}
+
+bool AckTracker::IsAcked(KeyframeId id) const {
+  auto it = entries_.find(id);
+  return it != entries_.end() && it->second.acked;
+}
+
+std::size_t AckTracker::unacked_count() const {
+  std::size_t n = 0;
+  for (const auto& [id, entry] : entries_) n += entry.acked ? 0 : 1;
+  return n;
+}
+
+}  // namespace ccm::agent

@@ -1,0 +1,47 @@
+#include "agent_runtime/agent_config.h"
+
+#include "runtime_common/yaml_config.h"
+
+namespace ccm::agent {
+
+std::string AgentConfig::Validate() const {
+  if (agent_id < 1 || agent_id > 65535) return "agent_id must be in 1..65535";
+  if (domain_id < 0 || domain_id > 232) return "domain_id must be in 0..232";
+  if (!(keyframe_rate_hz > 0.0 && keyframe_rate_hz <= 100.0)) return "keyframe_rate_hz must be in (0, 100]";
+  if (features_per_keyframe < 1 || features_per_keyframe > 4000) return "features_per_keyframe must be in 1..4000";
+  if (!(status_rate_hz > 0.0 && status_rate_hz <= 50.0)) return "status_rate_hz must be in (0, 50]";
+  if (!(resend_holdoff_s >= 0.0)) return "resend_holdoff_s must be >= 0";
+  if (!(ack_timeout_s > 0.0)) return "ack_timeout_s must be > 0";
+  if (max_keyframes < 2) return "max_keyframes (N) must be >= 2";
+  if (buffer_keyframes < 0) return "buffer_keyframes (B) must be >= 0";
+  return {};
+}
+
+bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* error) {
+  auto node = rt::YamlReader::LoadFile(path, error);
+  if (!node) return false;
+  rt::YamlReader r(*node, path);
+  r.Get("agent_id", &config->agent_id);
+  r.Get("domain_id", &config->domain_id);
+  r.Get("qos_file", &config->qos_file);
+  r.Get("log_level", &config->log_level);
+  r.Get("keyframe_rate_hz", &config->keyframe_rate_hz);
+  r.Get("features_per_keyframe", &config->features_per_keyframe);
+  r.Get("status_rate_hz", &config->status_rate_hz);
+  r.Get("resend_holdoff_s", &config->resend_holdoff_s);
+  r.Get("ack_timeout_s", &config->ack_timeout_s);
+  r.Get("max_keyframes", &config->max_keyframes);
+  r.Get("buffer_keyframes", &config->buffer_keyframes);
+  r.RejectUnknownKeys();
+  if (!r.ok()) {
+    *error = r.error();
+    return false;
+  }
+  if (const std::string problem = config->Validate(); !problem.empty()) {
+    *error = path + ": " + problem;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace ccm::agent

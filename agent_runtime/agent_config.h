@@ -1,0 +1,30 @@
+// ccm_agent configuration: defaults, validation and strict YAML loading. The command line
+// overrides single fields after the file is loaded.
+#pragma once
+
+#include <string>
+
+namespace ccm::agent {
+
+struct AgentConfig {
+  int agent_id = 1;                    // 1..65535, unique in the team
+  int domain_id = 0;                   // DDS domain, 0..232
+  std::string qos_file;                // empty: $FASTRTPS_DEFAULT_PROFILES_FILE or qos_profiles/default.xml
+  std::string log_level = "info";
+  double keyframe_rate_hz = 2.0;       // link demo: synthetic keyframes per second
+  int features_per_keyframe = 1000;    // link demo: keypoints per synthetic keyframe
+  double status_rate_hz = 1.0;         // AgentStatus heartbeat rate
+  double resend_holdoff_s = 1.0;       // no second resend of a KF within this time
+  double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long
+  int max_keyframes = 50;              // N: local map size (CCM-SLAM default)
+  int buffer_keyframes = 50;           // B: extra unacknowledged KFs kept (paper: B = N)
+
+  /// Empty when valid, otherwise the first problem found.
+  std::string Validate() const;
+};
+
+/// Loads `path` over the defaults in *config. False with a message naming file and key on
+/// a missing file, a syntax error, an unknown key, a wrong type or an invalid value.
+bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* error);
+
+}  // namespace ccm::agent

@@ -1,0 +1,37 @@
+#include "server_runtime/server_config.h"
+
+#include "runtime_common/yaml_config.h"
+
+namespace ccm::server {
+
+std::string ServerConfig::Validate() const {
+  if (domain_id < 0 || domain_id > 232) return "domain_id must be in 0..232";
+  if (!(publish_rate_hz > 0.0 && publish_rate_hz <= 50.0)) return "publish_rate_hz must be in (0, 50]";
+  if (ack_repeats < 1 || ack_repeats > 20) return "ack_repeats must be in 1..20";
+  if (max_agents < 1 || max_agents > 64) return "max_agents must be in 1..64 (see resource limits in the QoS file)";
+  return {};
+}
+
+bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string* error) {
+  auto node = rt::YamlReader::LoadFile(path, error);
+  if (!node) return false;
+  rt::YamlReader r(*node, path);
+  r.Get("domain_id", &config->domain_id);
+  r.Get("qos_file", &config->qos_file);
+  r.Get("log_level", &config->log_level);
+  r.Get("publish_rate_hz", &config->publish_rate_hz);
+  r.Get("ack_repeats", &config->ack_repeats);
+  r.Get("max_agents", &config->max_agents);
+  r.RejectUnknownKeys();
+  if (!r.ok()) {
+    *error = r.error();
+    return false;
+  }
+  if (const std::string problem = config->Validate(); !problem.empty()) {
+    *error = path + ": " + problem;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace ccm::server
