@@ -1,0 +1,75 @@
+#include "agent_runtime/ack_tracker.h"
+
+#include <gtest/gtest.h>
+
+namespace ccm::agent {
+namespace {
+
+using Clock = AckTracker::Clock;
+using std::chrono::milliseconds;
+
+KeyframeId Kf(int i) { return KeyframeId::Make(1, i); }
+
+TEST(AckTracker, ResendsPredecessorOfAckedKeyframe) {
+  AckTracker t(milliseconds(100));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 5; ++i) t.OnSent(Kf(i), t0);
+  // Server processed 1, 2 and 4: KF 3 was skipped (lost or still in flight).
+  const auto resend = t.OnAcked({Kf(1), Kf(2), Kf(4)}, t0 + milliseconds(500));
+  ASSERT_EQ(resend.size(), 1u);
+  EXPECT_EQ(resend[0], Kf(3));
+  EXPECT_EQ(t.resent_count(), 1u);
+  EXPECT_EQ(t.acked_count(), 3u);
+  EXPECT_TRUE(t.IsAcked(Kf(4)));
+  EXPECT_FALSE(t.IsAcked(Kf(3)));
+  EXPECT_EQ(t.unacked_count(), 2u);  // 3 and 5 (5 has no acked successor: no resend)
+}
+
+TEST(AckTracker, HoldoffPreventsResendStorms) {
+  AckTracker t(milliseconds(1000));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 3; ++i) t.OnSent(Kf(i), t0);
+  EXPECT_TRUE(t.OnAcked({Kf(3)}, t0 + milliseconds(10)).empty());  // just sent: wait
+  const auto later = t.OnAcked({Kf(3)}, t0 + milliseconds(1500));
+  EXPECT_EQ(later, (std::vector<KeyframeId>{Kf(2)}));  // only the direct predecessor of an acked KF
+  EXPECT_TRUE(t.OnAcked({}, t0 + milliseconds(1600)).empty());      // holdoff after the resend
+}
+
+TEST(AckTracker, DuplicateAndUnknownAcksAreIgnored) {
+  AckTracker t;
+  const auto t0 = Clock::now();
+  t.OnSent(Kf(1), t0);
+  t.OnAcked({Kf(1), Kf(1), Kf(99)}, t0);
+  EXPECT_EQ(t.acked_count(), 1u);
+  EXPECT_EQ(t.unacked_count(), 0u);
+}
+
+TEST(AckTracker, OverdueKeyframesAreResentOnceThenAfterTimeout) {
+  AckTracker t;
+  const auto t0 = Clock::now();
+  t.OnSent(Kf(1), t0);
+  t.OnSent(Kf(2), t0);
+  EXPECT_TRUE(t.Overdue(milliseconds(5000), t0 + milliseconds(100)).empty());
+  EXPECT_EQ(t.Overdue(milliseconds(5000), t0 + milliseconds(6000)).size(), 2u);
+  EXPECT_TRUE(t.Overdue(milliseconds(5000), t0 + milliseconds(7000)).empty());
+}
+
+TEST(AckTracker, StaysBoundedOverALongRun) {
+  AckTracker t(milliseconds(0));
+  auto now = Clock::now();
+  for (int i = 1; i <= 10000; ++i) {
+    t.OnSent(Kf(i), now);
+    if (i % 10 == 0) {
+      std::vector<KeyframeId> acked;
+      for (int j = i - 9; j <= i; ++j) acked.push_back(Kf(j));
+      t.OnAcked(acked, now);
+    }
+    now += milliseconds(100);
+  }
+  EXPECT_EQ(t.acked_count(), 10000u);
+  EXPECT_EQ(t.unacked_count(), 0u);
+  EXPECT_EQ(t.resent_count(), 0u);
+}
+
+}  // namespace
+}  // namespace ccm::agent

@@ -1,0 +1,40 @@
+#include "agent_runtime/agent_config.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+namespace ccm::agent {
+namespace {
+
+std::string Write(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(AgentConfig, LoadsValidFile) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(Write("a.yaml", "agent_id: 7\nmax_keyframes: 10\nbuffer_keyframes: 10\n"), &c, &error))
+      << error;
+  EXPECT_EQ(c.agent_id, 7);
+  EXPECT_EQ(c.max_keyframes, 10);
+  EXPECT_DOUBLE_EQ(c.keyframe_rate_hz, 2.0);
+}
+
+TEST(AgentConfig, RejectsUnknownKeyWrongTypeAndBadValue) {
+  AgentConfig c;
+  std::string error;
+  EXPECT_FALSE(LoadAgentConfig(Write("b.yaml", "agent_idd: 7\n"), &c, &error));
+  EXPECT_NE(error.find("agent_idd"), std::string::npos) << error;
+  EXPECT_FALSE(LoadAgentConfig(Write("c.yaml", "agent_id: seven\n"), &c, &error));
+  EXPECT_NE(error.find("agent_id"), std::string::npos) << error;
+  EXPECT_FALSE(LoadAgentConfig(Write("d.yaml", "agent_id: 0\n"), &c, &error));
+  EXPECT_NE(error.find("1..65535"), std::string::npos) << error;
+  EXPECT_FALSE(LoadAgentConfig("/nonexistent.yaml", &c, &error));
+  EXPECT_NE(error.find("does not exist"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace ccm::agent
