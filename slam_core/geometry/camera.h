@@ -37,13 +37,28 @@ class CameraModel {
                        Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const = 0;
   /// Unit bearing vector for a distorted pixel. False if the pixel cannot be undistorted.
   virtual bool Unproject(const Eigen::Vector2d& uv, Eigen::Vector3d* bearing) const = 0;
+  /// Undistorted normalized image-plane coordinates (x/z, y/z) of a pixel. False if the
+  /// pixel cannot be undistorted or its ray points backwards (fisheye beyond 90 deg).
+  bool UnprojectToNormalized(const Eigen::Vector2d& uv, Eigen::Vector2d* xy) const {
+    Eigen::Vector3d b;
+    if (!Unproject(uv, &b) || b.z() <= 1e-9) return false;
+    *xy = b.head<2>() / b.z();
+    return true;
+  }
   bool InImage(const Eigen::Vector2d& uv, double border_px = 0.0) const {
     return uv.x() >= border_px && uv.y() >= border_px && uv.x() <= width() - 1 - border_px &&
            uv.y() <= height() - 1 - border_px;
   }
 };
 
-/// Builds the concrete model for a calibration (defined in camera_factory.cc).
+/// Empty string if the calibration is usable, otherwise what is wrong with it
+/// (e.g. "fx must be > 0", "equidistant needs 4 distortion coefficients, got 5").
+std::string ValidateIntrinsics(const CameraIntrinsics& intrinsics);
+
+/// Builds the concrete model for a calibration; nullptr if ValidateIntrinsics fails.
 std::unique_ptr<CameraModel> MakeCamera(const CameraIntrinsics& intrinsics);
+
+/// Name used in files and messages: "pinhole-radtan" / "fisheye-equidistant".
+const char* CameraTypeName(CameraType type);
 
 }  // namespace ccm
