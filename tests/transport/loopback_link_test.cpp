@@ -25,7 +25,7 @@ LinkRun RunLink(const std::string& kind, int count, double rate_hz, int domain) 
   const std::vector<std::string> common = {"--kind", kind, "--count", std::to_string(count), "--rate",
                                            std::to_string(rate_hz), "--qos", qos, "--domain", std::to_string(domain),
                                            "--drop", "0.2", "--delay-ms", "100", "--timeout", "90"};
-  std::vector<std::string> sub = {CCM_LINK_PROBE, "--role", "sub", "--idle", "5"};
+  std::vector<std::string> sub = {CCM_LINK_PROBE, "--role", "sub", "--idle", "20"};
   std::vector<std::string> pub = {CCM_LINK_PROBE, "--role", "pub"};
   sub.insert(sub.end(), common.begin(), common.end());
   pub.insert(pub.end(), common.begin(), common.end());
