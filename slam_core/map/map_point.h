@@ -1,0 +1,71 @@
+// A 3D landmark of a map: position, observations (keyframe id -> keypoint index) and
+// the view geometry used to predict its appearance (descriptor, normal, depth range).
+// Owned by a Map through shared_ptr; any thread may call it (own mutex, short sections).
+#pragma once
+
+#include <mutex>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "slam_core/common/ids.h"
+#include "slam_core/feature/orb_types.h"
+
+namespace ccm {
+
+class MapPoint {
+ public:
+  MapPoint(MapPointId id, const Eigen::Vector3d& position_world, KeyframeId reference_kf,
+           const OrbDescriptor& descriptor);
+
+  MapPointId id() const { return id_; }
+
+  Eigen::Vector3d position() const;
+  void SetPosition(const Eigen::Vector3d& position_world);
+  KeyframeId reference_kf() const;
+  void SetReferenceKf(KeyframeId kf);
+
+  /// Snapshot of (keyframe, keypoint index) pairs, sorted by keyframe id.
+  std::vector<std::pair<KeyframeId, int>> observations() const;
+  int num_observations() const;
+  std::optional<int> KeypointIn(KeyframeId kf) const;
+  /// The Map keeps both sides consistent: call Map::AddObservation, not these.
+  bool AddObservation(KeyframeId kf, int keypoint_index);
+  bool EraseObservation(KeyframeId kf);
+
+  OrbDescriptor descriptor() const;
+  Eigen::Vector3d normal() const;
+  double min_distance_m() const;
+  double max_distance_m() const;
+  /// Set by Map::UpdateMapPointAppearance from the observing keyframes.
+  void SetAppearance(const OrbDescriptor& descriptor, const Eigen::Vector3d& normal, double min_distance_m,
+                     double max_distance_m);
+  /// Pyramid level at which the point should appear at this distance (ORB-SLAM rule).
+  int PredictLevel(double distance_m, const ScalePyramid& pyramid) const;
+
+  bool bad() const;
+  void SetBad(MapPointId replaced_by = MapPointId::Invalid());
+  MapPointId replaced_by() const;
+
+  /// Tracking statistics: how often the point was predicted visible vs. actually matched.
+  void IncreaseVisible(int n = 1);
+  void IncreaseFound(int n = 1);
+  double found_ratio() const;
+
+ private:
+  const MapPointId id_;
+  mutable std::mutex mutex_;
+  Eigen::Vector3d position_world_;
+  KeyframeId reference_kf_;
+  std::vector<std::pair<KeyframeId, int>> observations_;  // sorted by id
+  OrbDescriptor descriptor_;
+  Eigen::Vector3d normal_ = Eigen::Vector3d::Zero();
+  double min_distance_m_ = 0.0, max_distance_m_ = 0.0;
+  bool bad_ = false;
+  MapPointId replaced_by_;
+  int visible_ = 1, found_ = 1;
+};
+
+}  // namespace ccm
