@@ -1,0 +1,124 @@
+#include "slam_core/eval/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ccm {
+
+ErrorStats ComputeStats(const std::vector<double>& values) {
+  ErrorStats s;
+  s.count = values.size();
+  if (values.empty()) return s;
+  std::vector<double> sorted = values;
+  std::sort(sorted.begin(), sorted.end());
+  double sum = 0.0;
+  for (double v : sorted) {
+    sum += v;
+    s.sse += v * v;
+  }
+  const double n = static_cast<double>(s.count);
+  s.mean = sum / n;
+  s.rmse = std::sqrt(s.sse / n);
+  double var = 0.0;
+  for (double v : sorted) var += (v - s.mean) * (v - s.mean);
+  s.std = std::sqrt(var / n);
+  s.min = sorted.front();
+  s.max = sorted.back();
+  const size_t mid = s.count / 2;
+  s.median = s.count % 2 == 1 ? sorted[mid] : 0.5 * (sorted[mid - 1] + sorted[mid]);
+  return s;
+}
+
+std::vector<double> AbsoluteTranslationErrors(const std::vector<SE3>& gt,
+                                              const std::vector<SE3>& est) {
+  std::vector<double> errors(std::min(gt.size(), est.size()));
+  for (size_t i = 0; i < errors.size(); ++i) {
+    errors[i] = (est[i].translation() - gt[i].translation()).norm();
+  }
+  return errors;
+}
+
+double RotationAngleDeg(const Eigen::Quaterniond& q) {
+  // atan2 form is accurate near 0 and 180 degrees, unlike acos((trace - 1) / 2).
+  const double angle_rad = 2.0 * std::atan2(q.vec().norm(), std::fabs(q.w()));
+  return angle_rad * 180.0 / M_PI;
+}
+
+bool RpeOptions::Validate(std::string* error) const {
+  if (unit == RpeDeltaUnit::kFrames && !(delta >= 1.0 && delta == std::floor(delta))) {
+    *error = "RPE delta in frames must be an integer >= 1";
+    return false;
+  }
+  if (unit == RpeDeltaUnit::kMeters && !(delta > 0.0 && std::isfinite(delta))) {
+    *error = "RPE delta in metres must be > 0";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+std::vector<std::pair<size_t, size_t>> PairsByPath(const std::vector<SE3>& gt, double delta_m,
+                                                   bool all_pairs) {
+  std::vector<std::pair<size_t, size_t>> pairs;
+  if (gt.empty()) return pairs;
+  if (all_pairs) {
+    // From every i, the j > i whose travelled distance is closest to delta, kept if within
+    // 10% of delta (evo's default rel_delta_tol = 0.1).
+    std::vector<double> dist(gt.size(), 0.0);
+    for (size_t i = 1; i < gt.size(); ++i) {
+      dist[i] = dist[i - 1] + (gt[i].translation() - gt[i - 1].translation()).norm();
+    }
+    for (size_t i = 0; i + 1 < gt.size(); ++i) {
+      auto it = std::lower_bound(dist.begin() + i + 1, dist.end(), dist[i] + delta_m);
+      size_t best = it == dist.end() ? gt.size() - 1 : static_cast<size_t>(it - dist.begin());
+      if (best > i + 1 && std::fabs(dist[best - 1] - dist[i] - delta_m) <
+                              std::fabs(dist[best] - dist[i] - delta_m)) {
+        --best;
+      }
+      if (std::fabs(dist[best] - dist[i] - delta_m) <= 0.1 * delta_m) pairs.emplace_back(i, best);
+    }
+    return pairs;
+  }
+  std::vector<size_t> ids;
+  double path = 0.0;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    if (i > 0) path += (gt[i].translation() - gt[i - 1].translation()).norm();
+    if (path >= delta_m) {
+      ids.push_back(i);
+      path = 0.0;
+    }
+  }
+  for (size_t k = 0; k + 1 < ids.size(); ++k) pairs.emplace_back(ids[k], ids[k + 1]);
+  return pairs;
+}
+
+}  // namespace
+
+std::vector<std::pair<size_t, size_t>> RpePairs(const std::vector<SE3>& gt, const RpeOptions& options) {
+  if (options.unit == RpeDeltaUnit::kMeters) return PairsByPath(gt, options.delta, options.all_pairs);
+  const size_t delta = static_cast<size_t>(options.delta);
+  std::vector<std::pair<size_t, size_t>> pairs;
+  const size_t step = options.all_pairs ? 1 : delta;
+  for (size_t i = 0; i + delta < gt.size(); i += step) pairs.emplace_back(i, i + delta);
+  return pairs;
+}
+
+RpeResult ComputeRpe(const std::vector<SE3>& gt, const std::vector<SE3>& est,
+                     const RpeOptions& options) {
+  RpeResult result;
+  if (gt.size() != est.size()) return result;
+  result.pairs = RpePairs(gt, options);
+  for (const auto& [i, j] : result.pairs) {
+    const SE3 gt_rel = gt[i].inverse() * gt[j];
+    const SE3 est_rel = est[i].inverse() * est[j];
+    const SE3 error = gt_rel.inverse() * est_rel;
+    result.translation_errors_m.push_back(error.translation().norm());
+    result.rotation_errors_deg.push_back(RotationAngleDeg(error.rotation()));
+  }
+  result.translation_m = ComputeStats(result.translation_errors_m);
+  result.rotation_deg = ComputeStats(result.rotation_errors_deg);
+  return result;
+}
+
+}  // namespace ccm

@@ -1,0 +1,55 @@
+// Trajectory error metrics with evo's conventions (evo_ape / evo_rpe, pose relation
+// "translation_part" and "angle_deg"): statistics, absolute translation error and relative
+// pose error on already associated (and aligned) pose sequences. See docs/evaluation.md.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "slam_core/geometry/se3.h"
+
+namespace ccm {
+
+/// Statistics of an error sample, as evo reports them: std is the population standard
+/// deviation (numpy.std), median averages the two middle values for an even count.
+struct ErrorStats {
+  size_t count = 0;
+  double rmse = 0, mean = 0, median = 0, std = 0, min = 0, max = 0, sse = 0;
+};
+ErrorStats ComputeStats(const std::vector<double>& values);
+
+/// ATE translation part: ||t_est_i - t_gt_i|| for associated (aligned) poses [m].
+std::vector<double> AbsoluteTranslationErrors(const std::vector<SE3>& gt,
+                                              const std::vector<SE3>& est);
+
+/// Rotation angle of a rotation [deg], in [0, 180].
+double RotationAngleDeg(const Eigen::Quaterniond& q);
+
+enum class RpeDeltaUnit { kFrames, kMeters };
+
+struct RpeOptions {
+  double delta = 1.0;                        ///< frames (integer >= 1) or metres (> 0) of gt path
+  RpeDeltaUnit unit = RpeDeltaUnit::kFrames;
+  bool all_pairs = false;  ///< false: consecutive non-overlapping pairs (evo default)
+  bool Validate(std::string* error) const;
+};
+
+struct RpeResult {
+  std::vector<std::pair<size_t, size_t>> pairs;  ///< (i, j) indices into the sequences
+  std::vector<double> translation_errors_m;
+  std::vector<double> rotation_errors_deg;
+  ErrorStats translation_m;
+  ErrorStats rotation_deg;
+};
+
+/// Index pairs (i, j) chosen like evo.core.filters: by frame count, or by path length
+/// travelled on the ground truth.
+std::vector<std::pair<size_t, size_t>> RpePairs(const std::vector<SE3>& gt, const RpeOptions& options);
+
+/// E = (gt_i^-1 gt_j)^-1 (est_i^-1 est_j); translation error ||t(E)||, rotation error angle(E).
+RpeResult ComputeRpe(const std::vector<SE3>& gt, const std::vector<SE3>& est,
+                     const RpeOptions& options);
+
+}  // namespace ccm
