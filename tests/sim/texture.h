@@ -1,0 +1,66 @@
+// Procedural, mip-mapped grey-level textures for the simulator's planar surfaces.
+// Why: a feature detector must see a scene that behaves like a real one (corners at many
+// scales, no periodic patterns, some weakly textured areas), and the renderer needs
+// anti-aliased lookups, hence a full mip pyramid per texture.
+// Use: MakeProceduralTexture(style, size, seed) once at world build; Sample() per pixel.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+namespace ccm::sim {
+
+/// How much structure a texture carries.
+enum class TextureStyle {
+  kRich = 0,      ///< dense marks at all scales (boxes, posters, cluttered walls)
+  kMixed = 1,     ///< rich patches next to weakly textured ones (floors, most walls)
+  kWeak = 2,      ///< mostly smooth with few marks (ceilings, painted walls)
+  kFlat = 3,      ///< constant grey value (markers, tests)
+};
+
+/// Parses "rich" / "mixed" / "weak" / "flat"; false if unknown.
+bool ParseTextureStyle(const std::string& name, TextureStyle* style);
+const char* TextureStyleName(TextureStyle style);
+
+/// A grey texture with its mip pyramid (level 0 = full resolution, each level half size).
+/// Immutable after construction, safe to share between threads.
+class MipTexture {
+ public:
+  /// Takes a CV_8UC1 base image whose texels are texel_m metres wide and builds the pyramid.
+  MipTexture(const cv::Mat& base, double texel_m);
+
+  /// Trilinear lookup at surface coordinates (metres from the texture origin); `lod` is
+  /// the mip level (log2 of texels per pixel footprint), clamped to the pyramid range.
+  /// Coordinates outside the texture clamp to the border. Returns grey value 0..255.
+  float Sample(double u_m, double v_m, float lod) const;
+
+  double texel_m() const { return texel_m_; }
+  int levels() const { return static_cast<int>(levels_.size()); }
+  const cv::Mat& level(int i) const { return levels_[i]; }
+
+ private:
+  float Bilinear(int level, float x, float y) const;
+
+  std::vector<cv::Mat> levels_;
+  double texel_m_;
+};
+
+/// Parameters of one procedural texture.
+struct TextureRecipe {
+  TextureStyle style = TextureStyle::kMixed;
+  double width_m = 1.0;       ///< extent along the surface's u axis
+  double height_m = 1.0;      ///< extent along the v axis
+  double texel_m = 0.008;     ///< texel size at level 0 [m]
+  std::uint64_t seed = 1;     ///< same recipe + seed => identical texture
+  float base_grey = 128.0f;   ///< mean grey level 0..255 (kFlat: the constant value)
+};
+
+/// Draws a texture: multi-octave value noise, a low-frequency density field that leaves
+/// some areas weakly textured, and random shapes (rectangles, ellipses, polygons, lines,
+/// text-like marks) with sizes spread log-uniformly over two decades. Deterministic.
+cv::Mat DrawProceduralTexture(const TextureRecipe& recipe);
+
+}  // namespace ccm::sim
