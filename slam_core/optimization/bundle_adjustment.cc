@@ -1,0 +1,207 @@
+#include "slam_core/optimization/bundle_adjustment.h"
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include "slam_core/optimization/pose_manifold.h"
+#include "slam_core/optimization/reprojection_cost.h"
+
+namespace ccm::opt {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+ceres::LinearSolverType ToCeres(BaLinearSolver solver) {
+  switch (solver) {
+    case BaLinearSolver::kIterativeSchur: return ceres::ITERATIVE_SCHUR;
+    case BaLinearSolver::kDenseSchur: return ceres::DENSE_SCHUR;
+    case BaLinearSolver::kSparseSchur: break;
+  }
+  return ceres::SPARSE_SCHUR;
+}
+
+ceres::Problem::Options ProblemOptionsNotOwning() {
+  // Manifold and loss are shared by many blocks and owned by the caller's unique_ptrs.
+  ceres::Problem::Options options;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return options;
+}
+
+// Working copy of a BundleProblem's variables so a failed solve leaves the input untouched.
+struct BundleVariables {
+  std::vector<Se3Block> cam_from_world;
+  std::vector<Eigen::Vector3d> points_w;
+  std::vector<bool> pose_fixed;
+};
+
+BundleVariables CopyVariables(const BundleProblem& problem) {
+  BundleVariables v;
+  for (const PoseBlock& p : problem.poses) {
+    v.cam_from_world.push_back(PackSe3(p.world_from_cam.inverse()));
+    v.pose_fixed.push_back(p.fixed);
+  }
+  for (const PointBlock& p : problem.points) v.points_w.push_back(p.position_w);
+  return v;
+}
+
+void WriteBack(const BundleVariables& v, BundleProblem* problem) {
+  for (size_t i = 0; i < problem->poses.size(); ++i) {
+    if (!problem->poses[i].fixed) problem->poses[i].world_from_cam = UnpackSe3(v.cam_from_world[i]).inverse();
+  }
+  for (size_t i = 0; i < problem->points.size(); ++i) {
+    if (!problem->points[i].fixed) problem->points[i].position_w = v.points_w[i];
+  }
+}
+
+// Fixes the first observed pose when no observed pose is fixed (6-dof gauge).
+void FixGaugeIfNeeded(const BundleProblem& problem, const std::vector<bool>& active, BundleVariables* v) {
+  int first_observed = -1;
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    if (!active[i]) continue;
+    const int p = problem.observations[i].pose_index;
+    if (v->pose_fixed[p]) return;
+    if (first_observed < 0 || p < first_observed) first_observed = p;
+  }
+  if (first_observed >= 0) v->pose_fixed[first_observed] = true;
+}
+
+// One Levenberg-Marquardt pass over the active observations.
+ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::vector<bool>& active,
+                                     bool robust, int max_iterations,
+                                     const BundleAdjusterOptions& options, BundleVariables* v) {
+  std::unique_ptr<ceres::Manifold> manifold(NewSe3Manifold());
+  std::unique_ptr<ceres::LossFunction> huber(new ceres::HuberLoss(options.huber_delta));
+  ceres::Problem cp(ProblemOptionsNotOwning());
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  std::vector<bool> pose_added(problem.poses.size(), false), point_added(problem.points.size(), false);
+  bool any_free_point = false;
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    if (!active[i]) continue;
+    const Observation& o = problem.observations[i];
+    const CameraModel* camera = problem.cameras[problem.poses[o.pose_index].camera_index].get();
+    double* pose = v->cam_from_world[o.pose_index].data();
+    double* point = v->points_w[o.point_index].data();
+    cp.AddResidualBlock(ReprojectionError::Create(camera, o.uv_px, o.sigma_px), robust ? huber.get() : nullptr,
+                        pose, point);
+    if (!pose_added[o.pose_index]) {
+      pose_added[o.pose_index] = true;
+      cp.SetManifold(pose, manifold.get());
+      if (v->pose_fixed[o.pose_index]) cp.SetParameterBlockConstant(pose);
+      ordering->AddElementToGroup(pose, 1);
+    }
+    if (!point_added[o.point_index]) {
+      point_added[o.point_index] = true;
+      if (problem.points[o.point_index].fixed) cp.SetParameterBlockConstant(point);
+      any_free_point = any_free_point || !problem.points[o.point_index].fixed;
+      ordering->AddElementToGroup(point, 0);
+    }
+  }
+  ceres::Solver::Options so;
+  so.max_num_iterations = max_iterations;
+  so.num_threads = options.num_threads;
+  so.function_tolerance = options.function_tolerance;
+  so.linear_solver_type = any_free_point ? ToCeres(options.linear_solver) : ceres::DENSE_QR;
+  if (any_free_point) so.linear_solver_ordering = ordering;
+  if (options.linear_solver == BaLinearSolver::kIterativeSchur) so.preconditioner_type = ceres::SCHUR_JACOBI;
+  so.sparse_linear_algebra_library_type =
+      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SUITE_SPARSE
+                                                                            : ceres::EIGEN_SPARSE;
+  ceres::Solver::Summary summary;
+  if (cp.NumResidualBlocks() > 0) ceres::Solve(so, &cp, &summary);
+  return summary;
+}
+
+// Marks observations whose chi2 (with the working variables) is within the threshold.
+std::vector<bool> ClassifyObservations(const BundleProblem& problem, const BundleVariables& v,
+                                       double chi2_threshold, int* num_inliers) {
+  std::vector<SE3> cam_from_world;
+  for (const Se3Block& b : v.cam_from_world) cam_from_world.push_back(UnpackSe3(b));
+  std::vector<bool> inlier(problem.observations.size(), false);
+  *num_inliers = 0;
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    const Observation& o = problem.observations[i];
+    const CameraModel& camera = *problem.cameras[problem.poses[o.pose_index].camera_index];
+    Eigen::Vector2d uv;
+    if (!camera.Project(cam_from_world[o.pose_index] * v.points_w[o.point_index], &uv)) continue;
+    inlier[i] = (uv - o.uv_px).squaredNorm() <= chi2_threshold * o.sigma_px * o.sigma_px;
+    *num_inliers += inlier[i] ? 1 : 0;
+  }
+  return inlier;
+}
+
+}  // namespace
+
+std::string BundleAdjusterOptions::Validate() const {
+  if (robust_iterations < 0 || refine_iterations < 0) return "iterations must be >= 0";
+  if (robust_iterations + refine_iterations == 0) return "at least one iteration is needed";
+  if (!(chi2_threshold > 0.0)) return "chi2_threshold must be > 0";
+  if (!(huber_delta > 0.0)) return "huber_delta must be > 0";
+  if (num_threads < 1) return "num_threads must be >= 1";
+  if (!(function_tolerance > 0.0)) return "function_tolerance must be > 0";
+  return "";
+}
+
+BundleAdjusterOptions LocalBaDefaults() { return BundleAdjusterOptions{}; }
+
+BundleAdjusterOptions GlobalBaDefaults() {
+  BundleAdjusterOptions o;
+  o.robust_iterations = 15;
+  o.refine_iterations = 0;
+  o.reject_outliers = false;
+  o.num_threads = 2;
+  return o;
+}
+
+OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  OptimizationSummary out;
+  out.message = ValidateProblem(*problem);
+  if (out.message.empty()) out.message = options.Validate();
+  if (!out.message.empty()) return out;
+
+  BundleVariables v = CopyVariables(*problem);
+  std::vector<bool> active(problem->observations.size());
+  for (size_t i = 0; i < active.size(); ++i) active[i] = ObservationChi2(*problem, problem->observations[i]) >= 0.0;
+  if (std::find(active.begin(), active.end(), true) == active.end()) {
+    out.message = "no observation can be projected";
+    return out;
+  }
+  if (options.fix_first_pose_if_none_fixed) FixGaugeIfNeeded(*problem, active, &v);
+
+  bool ok = true;
+  bool first_pass = true;
+  auto run = [&](bool robust, int iterations) {
+    const ceres::Solver::Summary s = RunBundlePass(*problem, active, robust, iterations, options, &v);
+    ok = ok && s.IsSolutionUsable();
+    if (first_pass) out.initial_cost = s.initial_cost;
+    first_pass = false;
+    out.final_cost = s.final_cost;
+    out.iterations += std::max(0, static_cast<int>(s.iterations.size()) - 1);
+    out.message = s.BriefReport();
+  };
+  if (options.robust_iterations > 0) run(true, options.robust_iterations);
+  if (ok && options.refine_iterations > 0) {
+    if (options.reject_outliers) {
+      int n = 0;
+      active = ClassifyObservations(*problem, v, options.chi2_threshold, &n);
+    }
+    run(false, options.refine_iterations);
+  }
+  out.usable = ok;
+  if (ok) {
+    out.inlier = ClassifyObservations(*problem, v, options.chi2_threshold, &out.num_inliers);
+    WriteBack(v, problem);
+  }
+  out.solve_time_s = SecondsSince(start);
+  return out;
+}
+
+}  // namespace ccm::opt

@@ -1,0 +1,91 @@
+// Reprojection-error optimizers on Ceres: pose-only (tracking), local BA (keyframe window
+// with a fixed periphery) and global BA (whole map). All are synchronous, use no threads
+// except the num_threads Ceres workers the caller allows, print nothing, and update their
+// input in place. Any ccm::CameraModel works (see reprojection_cost.h).
+//
+//   opt::BundleProblem problem = ...;               // copied out of the map by the caller
+//   opt::OptimizationSummary s = opt::LocalBundleAdjustment(&problem, {});
+//   // write poses/points back; erase observations with !s.inlier[i]
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "slam_core/optimization/bundle_problem.h"
+
+namespace ccm::opt {
+
+/// Pose-only optimization, ORB-SLAM style: `num_rounds` rounds of `iterations_per_round`
+/// Levenberg-Marquardt iterations; after each round every observation (including earlier
+/// outliers, which may come back) is classified by chi2 against the threshold, and the next
+/// round uses only inliers. The robust loss is dropped in the last round.
+struct PoseOptimizerOptions {
+  int num_rounds = 4;
+  int iterations_per_round = 10;
+  double chi2_threshold = kChi2Mono2Dof;  ///< on squared whitened error (px^2 / sigma^2)
+  double huber_delta = 2.447;             ///< whitened units; sqrt(5.991)
+  int min_inliers = 3;                    ///< below this the result is not usable
+  std::string Validate() const;
+};
+
+/// A known 3D point and its keypoint in the frame being optimized.
+struct PointObservation {
+  Eigen::Vector3d point_w = Eigen::Vector3d::Zero();
+  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();
+  double sigma_px = 1.0;
+};
+
+/// Refines *world_from_cam (initial guess in, result out) from fixed points. summary.inlier
+/// flags each observation; usable is false (and the pose unchanged) if fewer than
+/// min_inliers remain or the input is empty.
+OptimizationSummary OptimizePose(const CameraModel& camera,
+                                 const std::vector<PointObservation>& observations,
+                                 SE3* world_from_cam, const PoseOptimizerOptions& options = {});
+
+enum class BaLinearSolver { kSparseSchur, kIterativeSchur, kDenseSchur };
+
+/// Shared by local and global BA. Pass 1 runs `robust_iterations` with a Huber loss. If
+/// reject_outliers, observations with chi2 > threshold (or unprojectable) are dropped and
+/// pass 2 runs `refine_iterations` without robust loss (ORB-SLAM's local BA). Finally all
+/// observations are flagged by chi2.
+struct BundleAdjusterOptions {
+  int robust_iterations = 5;
+  int refine_iterations = 10;
+  bool reject_outliers = true;
+  double chi2_threshold = kChi2Mono2Dof;
+  double huber_delta = 2.447;  ///< whitened units; sqrt(5.991)
+  int num_threads = 1;         ///< Ceres worker threads (Jacobians, Schur elimination)
+  /// SPARSE_SCHUR uses SuiteSparse when Ceres has it, else Eigen's sparse Cholesky.
+  BaLinearSolver linear_solver = BaLinearSolver::kSparseSchur;
+  /// Gauge: if no pose in the problem is fixed, fix the first observed pose. Monocular
+  /// maps also have a free scale; it is left to the solver's damping (it barely moves).
+  bool fix_first_pose_if_none_fixed = true;
+  double function_tolerance = 1e-6;  ///< relative cost change that stops a pass
+  std::string Validate() const;
+};
+
+/// Defaults of ORB-SLAM's local BA (5 robust + 10 refine iterations, outliers rejected).
+BundleAdjusterOptions LocalBaDefaults();
+/// Defaults of ORB-SLAM's global BA (robust loss, no rejection, 2 threads, 15 iterations).
+BundleAdjusterOptions GlobalBaDefaults();
+
+/// Optimizes the non-fixed poses and points of *problem in place. summary.inlier has one
+/// entry per problem->observations. usable is false if the problem is invalid (see
+/// ValidateProblem) or Ceres fails; the problem is then left unchanged.
+OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOptions& options);
+
+/// Local BA: a window of keyframes (not fixed) plus the periphery keyframes that also see
+/// the window's points (fixed). Same as BundleAdjust with LocalBaDefaults() by default.
+inline OptimizationSummary LocalBundleAdjustment(BundleProblem* problem,
+                                                 const BundleAdjusterOptions& options = LocalBaDefaults()) {
+  return BundleAdjust(problem, options);
+}
+
+/// Global BA over a whole map; fix at least the first keyframe (gauge).
+inline OptimizationSummary GlobalBundleAdjustment(BundleProblem* problem,
+                                                  const BundleAdjusterOptions& options = GlobalBaDefaults()) {
+  return BundleAdjust(problem, options);
+}
+
+}  // namespace ccm::opt
