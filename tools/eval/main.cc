@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
     const cv::Mat image = ccm::tools::RenderTopView(report, args.eval, args.plot);
     bool written = false;
     try {
-      written = cv::imwrite(args.plot_path, image);
+      written = cv::imwrite(args.plot_path, image, {cv::IMWRITE_PNG_COMPRESSION, 9});
     } catch (const cv::Exception& e) {
       return Fail("cannot write " + args.plot_path + ": " + e.what());
     }

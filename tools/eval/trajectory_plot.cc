@@ -140,9 +140,9 @@ cv::Mat RenderTopView(const EvalReport& report, const EvalOptions& eval_options,
     if (!gt[i].empty()) cv::circle(img, view(gt[i][0].x(), gt[i][0].y()), 5, color, -1, cv::LINE_AA);
   }
   char title[160];
-  std::snprintf(title, sizeof(title), "top view, %s alignment, joint ATE rmse %.4f m (%zu poses)",
-                ToString(eval_options.alignment), report.joint.ate_m.rmse, report.joint.matched);
-  cv::putText(img, title, cv::Point(margin_left, 30), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  std::snprintf(title, sizeof(title), "joint ATE rmse %.4f m (%s, %zu poses)",
+                report.joint.ate_m.rmse, ToString(eval_options.alignment), report.joint.matched);
+  cv::putText(img, title, cv::Point(margin_left, 30), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   DrawLegend(&img, report, cv::Point(margin_left, options.size_px + 5));
   return img;
 }
