@@ -1,0 +1,58 @@
+// ORB feature extraction in the ORB-SLAM style: an image pyramid, FAST per grid cell with a
+// threshold fallback, a quadtree per level that keeps the strongest corner of each node so
+// keypoints spread over the whole image, intensity-centroid orientation and steered BRIEF.
+// Owned by one tracking thread: Extract() reuses internal buffers, so use one extractor per
+// thread. Output is deterministic for a given image and options.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "slam_core/feature/orb_types.h"
+
+namespace ccm {
+
+struct OrbExtractorOptions {
+  int num_features = 1000;         ///< keypoints over all levels (upper bound)
+  int num_levels = 8;              ///< pyramid levels
+  double scale_factor = 1.2;       ///< scale between consecutive levels (> 1)
+  int ini_fast_threshold = 20;     ///< FAST intensity threshold [grey levels]
+  int min_fast_threshold = 7;      ///< fallback threshold for cells where the first finds none
+  int edge_border_px = 19;         ///< keypoints keep this distance to each level's border [px]
+  int cell_size_px = 30;           ///< FAST grid cell size on every level [px]
+
+  /// Empty if usable, else what is wrong ("num_levels must be in [1, 32]").
+  std::string Validate() const;
+};
+
+class OrbExtractor {
+ public:
+  /// Options must be valid (Validate() empty); invalid options are a programming error.
+  explicit OrbExtractor(const OrbExtractorOptions& options);
+
+  /// Extracts features from an 8-bit image (grey, or BGR/BGRA converted to grey).
+  /// Keypoints are in level-0 pixel coordinates of the (distorted) input image, ordered by
+  /// level. An empty or too small image yields no features.
+  FrameFeatures Extract(const cv::Mat& image);
+
+  const OrbExtractorOptions& options() const { return options_; }
+  const ScalePyramid& pyramid() const { return pyramid_; }
+  /// Target number of keypoints per level (geometric series, level 0 gets the most).
+  const std::vector<int>& features_per_level() const { return features_per_level_; }
+  /// Pyramid images of the last Extract() call (level 0 is the grey input).
+  const std::vector<cv::Mat>& level_images() const { return levels_; }
+
+ private:
+  void BuildPyramid(const cv::Mat& gray);
+  /// FAST corners of one level (level coordinates), ini threshold with per-cell fallback.
+  void DetectFast(const cv::Mat& level, std::vector<cv::KeyPoint>* corners) const;
+
+  OrbExtractorOptions options_;
+  ScalePyramid pyramid_;
+  std::vector<int> features_per_level_;
+  std::vector<cv::Mat> levels_;
+  cv::Mat blurred_;
+};
+
+}  // namespace ccm
