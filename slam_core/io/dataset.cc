@@ -70,4 +70,12 @@ std::unique_ptr<FrameSource> OpenDataset(const DatasetOptions& options, IoStatus
   return nullptr;
 }
 
+std::unique_ptr<FrameSource> OpenDataset(const std::string& path, DatasetFormat format,
+                                         IoStatus* status) {
+  DatasetOptions options;
+  options.path = path;
+  options.format = format;
+  return OpenDataset(options, status);
+}
+
 }  // namespace ccm

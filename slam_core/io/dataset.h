@@ -46,6 +46,9 @@ struct DatasetOptions {
 
 /// Opens a dataset; on failure returns nullptr and a message naming the file (and line).
 std::unique_ptr<FrameSource> OpenDataset(const DatasetOptions& options, IoStatus* status);
+/// Same with default options for everything but the folder and the format.
+std::unique_ptr<FrameSource> OpenDataset(const std::string& path, DatasetFormat format,
+                                         IoStatus* status);
 /// Detects the layout: mav0/ or cam0/data.csv -> EuRoC, rgb.txt -> TUM, image_0/ + calib.txt
 /// -> KITTI.
 IoStatus DetectDatasetFormat(const std::string& path, DatasetFormat* format);

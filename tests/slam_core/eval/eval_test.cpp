@@ -67,6 +67,24 @@ TEST(Umeyama, RecoversRandomSim3AndSe3) {
   }
 }
 
+TEST(Umeyama, PlanarPointsStillGiveAProperRotation) {
+  // Rank-2 covariance (a ground robot or a level flight): the third axis comes from the
+  // determinant condition, never a reflection.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-4.0, 4.0);
+  const Sim3 gt_from_est = RandomSim3(&rng);
+  std::vector<Eigen::Vector3d> est, gt;
+  for (int i = 0; i < 30; ++i) {
+    est.emplace_back(u(rng), u(rng), 0.0);
+    gt.push_back(gt_from_est * est.back());
+  }
+  std::string error;
+  const std::optional<Sim3> sim3 = UmeyamaAlignment(est, gt, true, &error);
+  ASSERT_TRUE(sim3) << error;
+  ExpectSim3Near(*sim3, gt_from_est, 1e-9);
+  EXPECT_GT(sim3->rotation_matrix().determinant(), 0.0);
+}
+
 TEST(Umeyama, RejectsTooFewAndCollinearPoints) {
   std::string error;
   std::vector<Eigen::Vector3d> two = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0)};

@@ -214,9 +214,7 @@ TEST(OpenDataset, UnknownLayoutAndMissingFolder) {
   IoStatus status;
   EXPECT_FALSE(OpenDataset(options, &status));
   EXPECT_NE(status.message().find("unknown dataset layout"), std::string::npos);
-  options.path = dir / "nope";
-  options.format = DatasetFormat::kKitti;
-  EXPECT_FALSE(OpenDataset(options, &status));
+  EXPECT_FALSE(OpenDataset(dir / "nope", DatasetFormat::kKitti, &status));
   EXPECT_NE(status.message().find("not found"), std::string::npos);
 }
 
