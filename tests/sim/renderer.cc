@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <opencv2/core.hpp>
@@ -22,17 +23,37 @@ std::string RenderOptions::Validate() const {
   return {};
 }
 
+// One surface as seen from this frame's camera centre, packed for the inner loop.
+struct PackedSurface {
+  Eigen::Vector3d n, o_rel, u, v;  // normal, origin relative to the camera, axes
+  double n_dot_o;                  // n . o_rel (< 0 for surfaces facing the camera)
+  double su, sv;                   // extents [m]
+  int index;                       // into World::surfaces()
+};
+
 // Per-frame data in the world frame, relative to the camera centre.
 struct Renderer::FrameSetup {
   Eigen::Matrix3d R;                 // world_from_cam rotation
   Eigen::Vector3d center;            // camera centre in the world
-  std::vector<int> visible;          // surfaces facing the camera
-  std::vector<Eigen::Vector3d> o_rel, n, u, v;  // per surface (indexed like World::surfaces)
-  std::vector<double> n_dot_o;       // n . o_rel (< 0 for visible surfaces)
-  std::vector<double> su, sv;
+  std::vector<PackedSurface> visible;  // surfaces facing the camera
   std::vector<int> tile_begin;       // candidates of tile k: cand[tile_begin[k] .. tile_begin[k+1])
-  std::vector<int> cand;
+  std::vector<PackedSurface> cand;   // copies, so that each tile's list is contiguous
 };
+
+namespace {
+
+// log2 to about 0.01 for the mip level: exponent + quadratic in the mantissa.
+inline float FastLog2(float x) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &x, sizeof(bits));
+  const float e = static_cast<float>(static_cast<int>((bits >> 23) & 255u) - 127);
+  bits = (bits & 0x007FFFFFu) | 0x3F800000u;
+  float m;
+  std::memcpy(&m, &bits, sizeof(m));
+  return e + (-0.34484843f * m + 2.02466578f) * m - 1.67487759f;
+}
+
+}  // namespace
 
 std::unique_ptr<Renderer> Renderer::Create(std::shared_ptr<const World> world, const CameraIntrinsics& camera,
                                            const RenderOptions& options, std::string* error) {
@@ -116,22 +137,21 @@ Renderer::FrameSetup Renderer::Setup(const SE3& world_from_cam, bool with_tiles)
   f.R = world_from_cam.rotation_matrix();
   f.center = world_from_cam.translation();
   const auto& surfaces = world_->surfaces();
-  const size_t ns = surfaces.size();
-  f.o_rel.resize(ns); f.n.resize(ns); f.u.resize(ns); f.v.resize(ns);
-  f.n_dot_o.resize(ns); f.su.resize(ns); f.sv.resize(ns);
   std::vector<Eigen::Vector3d> sphere_c;
   std::vector<double> sphere_r;
-  for (size_t s = 0; s < ns; ++s) {
+  for (size_t s = 0; s < surfaces.size(); ++s) {
     const Surface& S = surfaces[s];
-    f.o_rel[s] = S.origin - f.center;
-    f.n[s] = S.normal();
-    f.u[s] = S.axis_u;
-    f.v[s] = S.axis_v;
-    f.su[s] = S.size_u_m;
-    f.sv[s] = S.size_v_m;
-    f.n_dot_o[s] = f.n[s].dot(f.o_rel[s]);
-    if (f.n_dot_o[s] < -1e-12) {
-      f.visible.push_back(static_cast<int>(s));
+    PackedSurface p;
+    p.o_rel = S.origin - f.center;
+    p.n = S.normal();
+    p.u = S.axis_u;
+    p.v = S.axis_v;
+    p.su = S.size_u_m;
+    p.sv = S.size_v_m;
+    p.n_dot_o = p.n.dot(p.o_rel);
+    p.index = static_cast<int>(s);
+    if (p.n_dot_o < -1e-12) {
+      f.visible.push_back(p);
       sphere_c.push_back(S.center() - f.center);
       sphere_r.push_back(0.5 * std::hypot(S.size_u_m, S.size_v_m));
     }
@@ -157,21 +177,21 @@ Renderer::FrameSetup Renderer::Setup(const SE3& world_from_cam, bool with_tiles)
   return f;
 }
 
-bool Renderer::Trace(const FrameSetup& f, const int* cand, int n_cand, const Eigen::Vector3d& d, Hit* hit) {
+bool Renderer::Trace(const PackedSurface* cand, int n_cand, const Eigen::Vector3d& d, Hit* hit) {
   double best = std::numeric_limits<double>::infinity();
   for (int c = 0; c < n_cand; ++c) {
-    const int s = cand[c];
-    const double denom = f.n[s].dot(d);
+    const PackedSurface& s = cand[c];
+    const double denom = s.n.dot(d);
     if (denom >= -1e-12) continue;  // ray parallel to or leaving the front side
-    const double t = f.n_dot_o[s] / denom;
+    const double t = s.n_dot_o / denom;
     if (!(t > 0.0) || t >= best) continue;
-    const Eigen::Vector3d p = t * d - f.o_rel[s];
-    const double a = p.dot(f.u[s]);
-    const double b = p.dot(f.v[s]);
-    if (a < 0.0 || b < 0.0 || a > f.su[s] || b > f.sv[s]) continue;
+    const Eigen::Vector3d p = t * d - s.o_rel;
+    const double a = p.dot(s.u);
+    const double b = p.dot(s.v);
+    if (a < 0.0 || b < 0.0 || a > s.su || b > s.sv) continue;
     best = t;
     hit->t = t;
-    hit->surface = s;
+    hit->surface = s.index;
     hit->a = a;
     hit->b = b;
     hit->cos_incidence = -denom;
@@ -186,7 +206,7 @@ void Renderer::ForEachPixel(const SE3& world_from_cam, Fn&& fn) const {
   for (int ty = 0; ty < tiles_y_; ++ty)
     for (int tx = 0; tx < tiles_x_; ++tx) {
       const size_t k = static_cast<size_t>(ty) * tiles_x_ + tx;
-      const int* cand = f.cand.data() + f.tile_begin[k];
+      const PackedSurface* cand = f.cand.data() + f.tile_begin[k];
       const int n_cand = f.tile_begin[k + 1] - f.tile_begin[k];
       const int x1 = std::min(width_, (tx + 1) * T), y1 = std::min(height_, (ty + 1) * T);
       for (int y = ty * T; y < y1; ++y)
@@ -197,7 +217,7 @@ void Renderer::ForEachPixel(const SE3& world_from_cam, Fn&& fn) const {
             continue;
           }
           Hit hit;
-          const bool ok = Trace(f, cand, n_cand, f.R * bearing_[i], &hit);
+          const bool ok = Trace(cand, n_cand, f.R * bearing_[i], &hit);
           fn(i, ok ? &hit : nullptr, true);
         }
     }
@@ -220,7 +240,7 @@ cv::Mat Renderer::RenderRadiance(const SE3& world_from_cam) const {
     // 1/cos(incidence), `anisotropy` picks between the short and the long axis.
     const float footprint = static_cast<float>(hit->t) * pixel_angle_[i] / static_cast<float>(tex.texel_m());
     const float stretch = 1.0f / std::max(static_cast<float>(hit->cos_incidence), 1e-3f);
-    const float lod = std::log2(std::max(footprint, 1e-6f)) + aniso * std::log2(stretch) + lod_bias;
+    const float lod = FastLog2(std::max(footprint, 1e-6f)) + aniso * FastLog2(stretch) + lod_bias;
     px[i] = tex.Sample(hit->a, hit->b, lod) * s.albedo * vignette_[i];
   });
   return out;
@@ -240,7 +260,7 @@ cv::Mat Renderer::Render(const std::vector<SE3>& poses, float gain, std::uint64_
   for (size_t i = 0, n = static_cast<size_t>(width_) * height_; i < n; ++i) {
     float v = in[i] * scale;
     if (noisy && valid_[i]) v += std::sqrt(read2 + shot * std::max(v, 0.0f)) * HashNormal(HashCombine(key, i));
-    o[i] = static_cast<unsigned char>(std::clamp(std::lround(v), 0L, 255L));
+    o[i] = static_cast<unsigned char>(std::clamp(v, 0.0f, 255.0f) + 0.5f);  // round half up
   }
   return out;
 }
@@ -251,7 +271,7 @@ std::optional<RayHit> Renderer::CastRay(const SE3& world_from_cam, const Eigen::
   const FrameSetup f = Setup(world_from_cam, false);
   Hit hit;
   const Eigen::Vector3d d = f.R * b.normalized();
-  if (!Trace(f, f.visible.data(), static_cast<int>(f.visible.size()), d, &hit)) return std::nullopt;
+  if (!Trace(f.visible.data(), static_cast<int>(f.visible.size()), d, &hit)) return std::nullopt;
   RayHit r;
   r.range_m = hit.t;
   r.point_w = f.center + hit.t * d;

@@ -43,6 +43,8 @@ struct RayHit {
   Eigen::Vector2d surface_uv_m = Eigen::Vector2d::Zero();  ///< position on the surface
 };
 
+struct PackedSurface;  // renderer.cc: a surface prepared for one frame
+
 class Renderer {
  public:
   /// nullptr + *error set if the camera or options are invalid.
@@ -79,7 +81,7 @@ class Renderer {
   Renderer(std::shared_ptr<const World> world, std::unique_ptr<CameraModel> camera, const RenderOptions& options);
   void PrecomputeRays();
   FrameSetup Setup(const SE3& world_from_cam, bool with_tiles) const;
-  static bool Trace(const FrameSetup& f, const int* cand, int n_cand, const Eigen::Vector3d& d_w, Hit* hit);
+  static bool Trace(const PackedSurface* cand, int n_cand, const Eigen::Vector3d& d_w, Hit* hit);
   // Calls fn(pixel_index, hit_or_null) for every pixel, tile by tile.
   template <typename Fn>
   void ForEachPixel(const SE3& world_from_cam, Fn&& fn) const;

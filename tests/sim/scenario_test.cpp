@@ -96,7 +96,11 @@ int CommonViews(const Views& a, const Views& b) {
 TEST(Scenario, Hall3EveryPairOfAgentsSharesViews) {
   const auto views = CollectViews(*SharedSim("hall3"));
   for (int a = 0; a < 3; ++a)
-    for (int b = a + 1; b < 3; ++b) EXPECT_GE(CommonViews(views[a], views[b]), 25) << "agents " << a << ", " << b;
+    for (int b = a + 1; b < 3; ++b) {
+      const int common = CommonViews(views[a], views[b]);
+      EXPECT_GE(common, 25) << "agents " << a << ", " << b;
+      RecordProperty("common_views_" + std::to_string(a) + std::to_string(b), common);
+    }
 }
 
 TEST(Scenario, Disjoint2AgentsNeverSeeTheSameSurface) {

@@ -5,6 +5,7 @@
 // Use: MakeProceduralTexture(style, size, seed) once at world build; Sample() per pixel.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -47,6 +48,42 @@ class MipTexture {
   std::vector<cv::Mat> levels_;
   double texel_m_;
 };
+
+// Inline: called once or twice per rendered pixel.
+inline float MipTexture::Bilinear(int level, float x, float y) const {
+  const cv::Mat& img = levels_[level];
+  const float max_x = static_cast<float>(img.cols - 1);
+  const float max_y = static_cast<float>(img.rows - 1);
+  x = std::min(std::max(x, 0.0f), max_x);
+  y = std::min(std::max(y, 0.0f), max_y);
+  const int x0 = std::min(static_cast<int>(x), img.cols - 2 < 0 ? 0 : img.cols - 2);
+  const int y0 = std::min(static_cast<int>(y), img.rows - 2 < 0 ? 0 : img.rows - 2);
+  const int x1 = std::min(x0 + 1, img.cols - 1);
+  const int y1 = std::min(y0 + 1, img.rows - 1);
+  const float fx = x - static_cast<float>(x0);
+  const float fy = y - static_cast<float>(y0);
+  const uchar* r0 = img.ptr<uchar>(y0);
+  const uchar* r1 = img.ptr<uchar>(y1);
+  const float top = r0[x0] + fx * (static_cast<float>(r0[x1]) - r0[x0]);
+  const float bottom = r1[x0] + fx * (static_cast<float>(r1[x1]) - r1[x0]);
+  return top + fy * (bottom - top);
+}
+
+inline float MipTexture::Sample(double u_m, double v_m, float lod) const {
+  const float max_level = static_cast<float>(levels_.size() - 1);
+  lod = std::min(std::max(lod, 0.0f), max_level);
+  const int l0 = static_cast<int>(lod);
+  const float frac = lod - static_cast<float>(l0);
+  const float x = static_cast<float>(u_m / texel_m_);
+  const float y = static_cast<float>(v_m / texel_m_);
+  // Texel centres: level l texel i covers [i, i+1) * 2^l level-0 texels.
+  const float s0 = 1.0f / static_cast<float>(1 << l0);
+  const float a = Bilinear(l0, x * s0 - 0.5f, y * s0 - 0.5f);
+  if (frac <= 1e-3f || l0 + 1 >= levels()) return a;
+  const float s1 = 0.5f * s0;
+  const float b = Bilinear(l0 + 1, x * s1 - 0.5f, y * s1 - 0.5f);
+  return a + frac * (b - a);
+}
 
 /// Parameters of one procedural texture.
 struct TextureRecipe {
