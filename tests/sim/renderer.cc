@@ -241,7 +241,9 @@ cv::Mat Renderer::RenderRadiance(const SE3& world_from_cam) const {
     const float footprint = static_cast<float>(hit->t) * pixel_angle_[i] / static_cast<float>(tex.texel_m());
     const float stretch = 1.0f / std::max(static_cast<float>(hit->cos_incidence), 1e-3f);
     const float lod = FastLog2(std::max(footprint, 1e-6f)) + aniso * FastLog2(stretch) + lod_bias;
-    px[i] = tex.Sample(hit->a, hit->b, lod) * s.albedo * vignette_[i];
+    // Texture images are drawn x right / y down, seen from the front, and u x v points
+    // towards the viewer: mirror u so that marks (text) are not mirrored.
+    px[i] = tex.Sample(s.size_u_m - hit->a, hit->b, lod) * s.albedo * vignette_[i];
   });
   return out;
 }
