@@ -1,11 +1,10 @@
 #include "slam_core/feature/orb_extractor.h"
 
-#include <opencv2/features2d.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "slam_core/feature/quadtree_distribution.h"
 #include "slam_core/feature/steered_brief.h"
@@ -138,10 +137,9 @@ FrameFeatures OrbExtractor::Extract(const cv::Mat& image) {
       continue;
     }
     DetectFast(level, &corners);
-    const std::vector<int> kept =
-        DistributeQuadtree(corners, static_cast<float>(b), static_cast<float>(b),
-                           static_cast<float>(level.cols - b), static_cast<float>(level.rows - b),
-                           target);
+    const std::vector<int> kept = DistributeQuadtree(
+        corners, static_cast<float>(b), static_cast<float>(b), static_cast<float>(level.cols - b),
+        static_cast<float>(level.rows - b), target);
     carry = target - static_cast<int>(kept.size());
     if (kept.empty()) continue;
     // Descriptors are computed on a smoothed image (BRIEF is noise sensitive); orientation on

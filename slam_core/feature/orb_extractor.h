@@ -14,13 +14,13 @@
 namespace ccm {
 
 struct OrbExtractorOptions {
-  int num_features = 1000;         ///< keypoints over all levels (upper bound)
-  int num_levels = 8;              ///< pyramid levels
-  double scale_factor = 1.2;       ///< scale between consecutive levels (> 1)
-  int ini_fast_threshold = 20;     ///< FAST intensity threshold [grey levels]
-  int min_fast_threshold = 7;      ///< fallback threshold for cells where the first finds none
-  int edge_border_px = 19;         ///< keypoints keep this distance to each level's border [px]
-  int cell_size_px = 30;           ///< FAST grid cell size on every level [px]
+  int num_features = 1000;      ///< keypoints over all levels (upper bound)
+  int num_levels = 8;           ///< pyramid levels
+  double scale_factor = 1.2;    ///< scale between consecutive levels (> 1)
+  int ini_fast_threshold = 20;  ///< FAST intensity threshold [grey levels]
+  int min_fast_threshold = 7;   ///< fallback threshold for cells where the first finds none
+  int edge_border_px = 19;      ///< keypoints keep this distance to each level's border [px]
+  int cell_size_px = 30;        ///< FAST grid cell size on every level [px]
 
   /// Empty if usable, else what is wrong ("num_levels must be in [1, 32]").
   std::string Validate() const;

@@ -44,9 +44,9 @@ std::vector<Node> InitialNodes(const std::vector<cv::KeyPoint>& corners, float x
     if (p.x < x0 || p.x >= x1 || p.y < y0 || p.y >= y1) continue;
     nodes[std::min(n - 1, static_cast<int>((p.x - x0) / w))].items.push_back(i);
   }
-  nodes.erase(std::remove_if(nodes.begin(), nodes.end(),
-                             [](const Node& nd) { return nd.items.empty(); }),
-              nodes.end());
+  nodes.erase(
+      std::remove_if(nodes.begin(), nodes.end(), [](const Node& nd) { return nd.items.empty(); }),
+      nodes.end());
   return nodes;
 }
 
@@ -65,9 +65,8 @@ std::vector<int> DistributeQuadtree(const std::vector<cv::KeyPoint>& corners, fl
       if (nd.items.size() > 1 && nd.x1 - nd.x0 > 0.5f) order.push_back(k);
     }
     if (order.empty()) break;
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-      return nodes[a].items.size() > nodes[b].items.size();
-    });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return nodes[a].items.size() > nodes[b].items.size(); });
     std::vector<bool> split(nodes.size(), false);
     std::vector<Node> next;
     int count = static_cast<int>(nodes.size());

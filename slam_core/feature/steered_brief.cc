@@ -94,8 +94,8 @@ float IntensityCentroidAngle(const cv::Mat& gray, int x, int y) {
     }
     m01 += dv * row_sum_diff;
   }
-  float angle = static_cast<float>(std::atan2(static_cast<double>(m01),
-                                              static_cast<double>(m10)) * 180.0 / M_PI);
+  float angle = static_cast<float>(std::atan2(static_cast<double>(m01), static_cast<double>(m10)) *
+                                   180.0 / M_PI);
   if (angle < 0.f) angle += 360.f;
   if (angle >= 360.f) angle -= 360.f;
   return angle;

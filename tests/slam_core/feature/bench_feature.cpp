@@ -1,13 +1,12 @@
 // bench_feature: ORB extraction cost per 752x480 frame on one core, keypoints per level and
 // spatial coverage. A plain program printing numbers (not a ctest test).
 // Usage: bench_feature [image_path] [iterations]
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <vector>
 
 #include "slam_core/feature/orb_extractor.h"
@@ -62,7 +61,8 @@ int main(int argc, char** argv) {
     const int cy = std::min(3, static_cast<int>(kp.v * 4 / image.rows));
     ++coarse[cy * 4 + cx];
   }
-  const int occupied = static_cast<int>(std::count_if(fine.begin(), fine.end(), [](int c) { return c > 0; }));
+  const int occupied =
+      static_cast<int>(std::count_if(fine.begin(), fine.end(), [](int c) { return c > 0; }));
   std::printf("coverage: %d/%d cells of %dx%d occupied; 4x4 grid min %d max %d per cell\n",
               occupied, kCx * kCy, kCx, kCy, *std::min_element(coarse.begin(), coarse.end()),
               *std::max_element(coarse.begin(), coarse.end()));

@@ -215,9 +215,10 @@ TEST_P(OrbUnderWarp, RepeatableAndMatchable) {
   const double rep = Repeatability(f1, f2, views.view2_from_view1, ex.pyramid());
   const MatchStats m = MatchAndCheck(f1, f2, views.view2_from_view1, ex.pyramid(), c.angle_deg);
   const double ratio = m.matches > 0 ? static_cast<double>(m.correct) / m.matches : 0.0;
-  std::printf("angle %.0f scale %.2f: repeatability %.3f, matches %d, correct %d (%.3f), "
-              "median angle error %.2f deg\n",
-              c.angle_deg, c.scale, rep, m.matches, m.correct, ratio, m.median_angle_error_deg);
+  std::printf(
+      "angle %.0f scale %.2f: repeatability %.3f, matches %d, correct %d (%.3f), "
+      "median angle error %.2f deg\n",
+      c.angle_deg, c.scale, rep, m.matches, m.correct, ratio, m.median_angle_error_deg);
   EXPECT_GE(rep, c.min_repeatability);
   EXPECT_GE(m.correct, c.min_correct);
   EXPECT_GE(ratio, c.min_correct_ratio);

@@ -1,8 +1,7 @@
 #include "synthetic_image.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 namespace ccm::test {
 
@@ -32,13 +31,15 @@ cv::Mat MakeTexture(int width, int height, uint64_t seed) {
         break;
       }
       case 1:
-        cv::ellipse(img, c,
-                    cv::Size(static_cast<int>(size), static_cast<int>(size * rng.uniform(0.2, 1.0))),
-                    rng.uniform(0.0, 180.0), 0, 360, color, cv::FILLED, cv::LINE_AA);
+        cv::ellipse(
+            img, c,
+            cv::Size(static_cast<int>(size), static_cast<int>(size * rng.uniform(0.2, 1.0))),
+            rng.uniform(0.0, 180.0), 0, 360, color, cv::FILLED, cv::LINE_AA);
         break;
       case 2: {
         const double a = rng.uniform(0.0, CV_PI);
-        const cv::Point d(static_cast<int>(size * std::cos(a)), static_cast<int>(size * std::sin(a)));
+        const cv::Point d(static_cast<int>(size * std::cos(a)),
+                          static_cast<int>(size * std::sin(a)));
         cv::line(img, c - d, c + d, color, rng.uniform(1, 4), cv::LINE_AA);
         break;
       }

@@ -3,9 +3,8 @@
 // warped by known homographies, which give exact ground-truth correspondences.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
+#include <opencv2/core.hpp>
 
 namespace ccm::test {
 
