@@ -9,7 +9,7 @@
 #include <ceres/solver.h>
 
 #include "slam_core/optimization/pose_manifold.h"
-#include "slam_core/optimization/reprojection_cost.h"
+#include "slam_core/optimization/reprojection_cost_analytic.h"
 
 namespace ccm::opt {
 namespace {
@@ -29,7 +29,9 @@ ceres::LinearSolverType ToCeres(BaLinearSolver solver) {
 
 ceres::Problem::Options ProblemOptionsNotOwning() {
   // Manifold and loss are shared by many blocks and owned by the caller's unique_ptrs.
+  // Indices were validated (ValidateProblem), so Ceres' per-residual checks are skipped.
   ceres::Problem::Options options;
+  options.disable_all_safety_checks = true;
   options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   return options;
@@ -89,7 +91,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
     const CameraModel* camera = problem.cameras[problem.poses[o.pose_index].camera_index].get();
     double* pose = v->cam_from_world[o.pose_index].data();
     double* point = v->points_w[o.point_index].data();
-    cp.AddResidualBlock(ReprojectionError::Create(camera, o.uv_px, o.sigma_px), robust ? huber.get() : nullptr,
+    cp.AddResidualBlock(ReprojectionCostAnalytic::Create(camera, o.uv_px, o.sigma_px), robust ? huber.get() : nullptr,
                         pose, point);
     if (!pose_added[o.pose_index]) {
       pose_added[o.pose_index] = true;
@@ -108,6 +110,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
   so.max_num_iterations = max_iterations;
   so.num_threads = options.num_threads;
   so.function_tolerance = options.function_tolerance;
+  so.initial_trust_region_radius = options.initial_trust_region_radius;
   so.linear_solver_type = any_free_point ? ToCeres(options.linear_solver) : ceres::DENSE_QR;
   if (any_free_point) so.linear_solver_ordering = ordering;
   if (options.linear_solver == BaLinearSolver::kIterativeSchur) so.preconditioner_type = ceres::SCHUR_JACOBI;
@@ -146,6 +149,7 @@ std::string BundleAdjusterOptions::Validate() const {
   if (!(huber_delta > 0.0)) return "huber_delta must be > 0";
   if (num_threads < 1) return "num_threads must be >= 1";
   if (!(function_tolerance > 0.0)) return "function_tolerance must be > 0";
+  if (!(initial_trust_region_radius > 0.0)) return "initial_trust_region_radius must be > 0";
   return "";
 }
 

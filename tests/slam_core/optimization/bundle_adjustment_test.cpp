@@ -6,6 +6,7 @@
 
 #include "slam_core/optimization/pose_manifold.h"
 #include "slam_core/optimization/reprojection_cost.h"
+#include "slam_core/optimization/reprojection_cost_analytic.h"
 #include "synthetic_scene.h"
 
 namespace ccm::opt {
@@ -47,6 +48,35 @@ TEST(ReprojectionCost, AutodiffJacobianMatchesNumericForBothCameraModels) {
     ASSERT_TRUE(nd->Evaluate(params, r_nd, jn));
     for (int k = 0; k < 14; ++k) EXPECT_NEAR(ja0[k], jn0[k], 1e-5 * (1.0 + std::abs(jn0[k])));
     for (int k = 0; k < 6; ++k) EXPECT_NEAR(ja1[k], jn1[k], 1e-5 * (1.0 + std::abs(jn1[k])));
+  }
+}
+
+// The analytic cost must give the same residual and the same tangent-space Jacobian
+// (ambient Jacobian times the manifold's PlusJacobian) as the autodiff functor.
+TEST(ReprojectionCost, AnalyticMatchesAutodiffInTangentSpace) {
+  std::unique_ptr<ceres::Manifold> manifold(NewSe3Manifold());
+  for (const auto& camera : {testing::MakeTestCamera(), MakeFisheye()}) {
+    for (int trial = 0; trial < 5; ++trial) {
+      const Eigen::Vector3d axis = Eigen::Vector3d(1, 2 - trial, 3 + trial).normalized();
+      const Se3Block pose = PackSe3(SE3(Eigen::Quaterniond(Eigen::AngleAxisd(0.2 + 0.5 * trial, axis)),
+                                        Eigen::Vector3d(0.1 * trial, -0.2, 0.3)));
+      const Eigen::Vector3d X = UnpackSe3(pose).inverse() * Eigen::Vector3d(0.3 - 0.1 * trial, -0.2, 2.0 + trial);
+      std::unique_ptr<ceres::CostFunction> ad(ReprojectionError::Create(camera.get(), Eigen::Vector2d(300, 200), 1.2));
+      std::unique_ptr<ceres::CostFunction> an(ReprojectionCostAnalytic::Create(camera.get(), Eigen::Vector2d(300, 200), 1.2));
+      const double* params[2] = {pose.data(), X.data()};
+      Eigen::Matrix<double, 2, 7, Eigen::RowMajor> jpa, jpn;
+      Eigen::Matrix<double, 2, 3, Eigen::RowMajor> jxa, jxn;
+      Eigen::Vector2d ra, rn;
+      double* ja[2] = {jpa.data(), jxa.data()};
+      double* jn[2] = {jpn.data(), jxn.data()};
+      ASSERT_TRUE(ad->Evaluate(params, ra.data(), ja));
+      ASSERT_TRUE(an->Evaluate(params, rn.data(), jn));
+      Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
+      ASSERT_TRUE(manifold->PlusJacobian(pose.data(), plus.data()));
+      EXPECT_LT((ra - rn).norm(), 1e-9);
+      EXPECT_LT((jpa * plus - jpn * plus).norm(), 1e-7 * (1.0 + (jpa * plus).norm()));
+      EXPECT_LT((jxa - jxn).norm(), 1e-7 * (1.0 + jxa.norm()));
+    }
   }
 }
 
