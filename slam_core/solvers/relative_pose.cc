@@ -1,0 +1,208 @@
+#include "slam_core/solvers/relative_pose.h"
+
+#include <array>
+#include <cmath>
+#include <memory>
+
+#include <opengv/relative_pose/CentralRelativeAdapter.hpp>
+#include <opengv/relative_pose/methods.hpp>
+#include <opengv/sac/Ransac.hpp>
+#include <opengv/sac_problems/relative_pose/CentralRelativePoseSacProblem.hpp>
+
+#include "slam_core/solvers/solver_internal.h"
+
+namespace ccm::solvers {
+namespace {
+
+using Problem = opengv::sac_problems::relative_pose::CentralRelativePoseSacProblem;
+
+Problem::algorithm_t ToOpenGv(RelativePoseAlgorithm a) {
+  switch (a) {
+    case RelativePoseAlgorithm::kStewenius5pt: return Problem::STEWENIUS;
+    case RelativePoseAlgorithm::kNister5pt: return Problem::NISTER;
+    case RelativePoseAlgorithm::kEightPoint: return Problem::EIGHTPT;
+  }
+  return Problem::STEWENIUS;
+}
+
+// OpenGV's model is cam1_from_cam2 = [R12 | t12] (pose of view 2 in view 1).
+SE3 FromOpenGv(const opengv::transformation_t& T) {
+  return SE3(Eigen::Matrix3d(T.leftCols<3>()), Eigen::Vector3d(T.col(3))).inverse();
+}
+
+SE3 NormalizeTranslation(const SE3& T) {
+  const double n = T.translation().norm();
+  return n > 0.0 ? SE3(T.rotation(), T.translation() / n) : T;
+}
+
+opengv::transformation_t ToOpenGvModel(const SE3& cam2_from_cam1) {
+  const SE3 cam1_from_cam2 = cam2_from_cam1.inverse();
+  opengv::transformation_t T;
+  T.leftCols<3>() = cam1_from_cam2.rotation_matrix();
+  T.col(3) = cam1_from_cam2.translation();
+  return T;
+}
+
+// Sampson approximation of the angular distance of (f1, f2) to the epipolar constraint,
+// with gradients taken on the tangent planes of the unit sphere.
+double SampsonAngle(const Eigen::Matrix3d& E, const Eigen::Vector3d& f1, const Eigen::Vector3d& f2) {
+  const Eigen::Vector3d ef1 = E * f1, etf2 = E.transpose() * f2;
+  const Eigen::Vector3d a = ef1 - f2 * f2.dot(ef1), b = etf2 - f1 * f1.dot(etf2);
+  return f2.dot(ef1) / std::sqrt(std::max(a.squaredNorm() + b.squaredNorm(), 1e-30));
+}
+
+// 5-DoF pose on SO(3) x S^2: rotation increment on the left, translation moved in the
+// tangent plane of the unit sphere.
+SE3 Perturb(const SE3& T, const Eigen::Matrix<double, 5, 1>& d) {
+  const Eigen::Vector3d& t = T.translation();
+  const Eigen::Vector3d e1 = t.unitOrthogonal(), e2 = t.cross(e1);
+  Eigen::Quaterniond dq(Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()));
+  if (d.head<3>().norm() < 1e-15) dq = Eigen::Quaterniond::Identity();
+  return SE3(dq * T.rotation(), (t + d(3) * e1 + d(4) * e2).normalized());
+}
+
+struct RobustCost {
+  double huber;  // radians
+  double Weight(double r) const { return std::abs(r) <= huber ? 1.0 : huber / std::abs(r); }
+  double Rho(double r) const { return std::abs(r) <= huber ? r * r : 2.0 * huber * std::abs(r) - huber * huber; }
+};
+
+double TotalCost(const SE3& T, const opengv::bearingVectors_t& f1, const opengv::bearingVectors_t& f2,
+                 const std::vector<int>& idx, const RobustCost& cost) {
+  const Eigen::Matrix3d E = EssentialFromPose(T);
+  double c = 0.0;
+  for (int i : idx) c += cost.Rho(SampsonAngle(E, f1[i], f2[i]));
+  return c;
+}
+
+// Levenberg-Marquardt with a Huber loss (accidental inliers near the threshold must not
+// pull the solution) and forward-difference Jacobians (5 parameters, cheap residuals).
+SE3 RefineRelativePose(const SE3& initial, const opengv::bearingVectors_t& f1, const opengv::bearingVectors_t& f2,
+                       const std::vector<int>& idx, double huber_rad) {
+  const RobustCost cost{huber_rad};
+  SE3 T = NormalizeTranslation(initial);
+  double current = TotalCost(T, f1, f2, idx, cost), lambda = 1e-4;
+  constexpr double kStep = 1e-7;
+  for (int iter = 0; iter < 100; ++iter) {
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    const Eigen::Matrix3d E = EssentialFromPose(T);
+    std::array<Eigen::Matrix3d, 5> Ed;
+    for (int k = 0; k < 5; ++k) Ed[k] = EssentialFromPose(Perturb(T, Eigen::Matrix<double, 5, 1>::Unit(k) * kStep));
+    for (int i : idx) {
+      const double r = SampsonAngle(E, f1[i], f2[i]);
+      Eigen::Matrix<double, 5, 1> J;
+      for (int k = 0; k < 5; ++k) J(k) = (SampsonAngle(Ed[k], f1[i], f2[i]) - r) / kStep;
+      const double w = cost.Weight(r);
+      H += w * J * J.transpose();
+      g += w * J * r;
+    }
+    bool improved = false;
+    for (int attempt = 0; attempt < 6 && !improved; ++attempt) {
+      Eigen::Matrix<double, 5, 5> A = H;
+      A.diagonal() *= 1.0 + lambda;
+      const Eigen::Matrix<double, 5, 1> delta = A.ldlt().solve(-g);
+      const SE3 candidate = Perturb(T, delta);
+      const double c = TotalCost(candidate, f1, f2, idx, cost);
+      if (std::isfinite(c) && c < current) {
+        improved = true;
+        const bool converged = current - c < 1e-10 * current;
+        T = candidate;
+        current = c;
+        lambda = std::max(lambda * 0.1, 1e-10);
+        if (converged) return T;
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved) break;
+  }
+  return T;
+}
+
+}  // namespace
+
+std::string RelativePoseOptions::Validate() const {
+  const std::string r = ransac.Validate();
+  if (!r.empty()) return r;
+  if (min_inliers < 5) return "min_inliers must be >= 5";
+  return "";
+}
+
+Eigen::Matrix3d EssentialFromPose(const SE3& cam2_from_cam1) {
+  const Eigen::Vector3d& t = cam2_from_cam1.translation();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  return tx * cam2_from_cam1.rotation_matrix();
+}
+
+RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bearings1,
+                                        const std::vector<Eigen::Vector3d>& bearings2,
+                                        const RelativePoseOptions& options) {
+  RelativePoseResult result;
+  result.message = options.Validate();
+  if (!result.message.empty()) return result;
+  if (bearings1.size() != bearings2.size()) {
+    result.message = "bearing vectors differ in size";
+    return result;
+  }
+  const int n = static_cast<int>(bearings1.size());
+  result.inliers.assign(n, false);
+  const opengv::bearingVectors_t f1 = internal::ToOpenGv(bearings1);
+  const opengv::bearingVectors_t f2 = internal::ToOpenGv(bearings2);
+  opengv::relative_pose::CentralRelativeAdapter adapter(f1, f2);
+  auto problem = std::make_shared<Problem>(adapter, ToOpenGv(options.algorithm), false);
+  if (n < std::max(problem->getSampleSize(), options.min_inliers)) {
+    result.status = SolverStatus::kTooFewPoints;
+    result.message = "need at least " + std::to_string(std::max(problem->getSampleSize(), options.min_inliers)) +
+                     " correspondences, got " + std::to_string(n);
+    return result;
+  }
+  internal::SeedOpenGvProblem(problem.get(), options.ransac.seed);
+
+  opengv::sac::Ransac<Problem> ransac;
+  ransac.sac_model_ = problem;
+  // Residual per correspondence = sum over both views of (1 - cos(angle)).
+  ransac.threshold_ = 2.0 * internal::OneMinusCos(options.ransac.ThresholdAngleRad());
+  ransac.max_iterations_ = options.ransac.max_iterations;
+  ransac.probability_ = options.ransac.confidence;
+  if (!ransac.computeModel(0)) {
+    result.status = SolverStatus::kRansacFailed;
+    result.message = "no essential-matrix hypothesis";
+    return result;
+  }
+  result.iterations = ransac.iterations_;
+  opengv::transformation_t model = ransac.model_coefficients_;
+  std::vector<int> inliers = ransac.inliers_;
+  if (options.refine && static_cast<int>(inliers.size()) >= options.min_inliers) {
+    // Refine, then re-select inliers under the refined model with OpenGV's residual
+    // (which also enforces cheirality); one more round helps after a noisy minimal sample.
+    const double huber = 0.5 * options.ransac.ThresholdAngleRad();
+    for (int round = 0; round < 2; ++round) {
+      const SE3 refined = RefineRelativePose(FromOpenGv(model), f1, f2, inliers, huber);
+      const opengv::transformation_t refined_model = ToOpenGvModel(refined);
+      std::vector<int> refined_inliers;
+      problem->selectWithinDistance(refined_model, ransac.threshold_, refined_inliers);
+      // The refined model is kept even if a few borderline points leave the set; only a
+      // collapse (a bad local minimum) is refused.
+      if (refined_inliers.size() < 0.9 * inliers.size()) break;
+      model = refined_model;
+      inliers.swap(refined_inliers);
+    }
+  }
+  result.cam2_from_cam1 = NormalizeTranslation(FromOpenGv(model));
+  // OpenGV's residual triangulates each point and compares unit rays with their signs, so
+  // a point behind either camera has residual ~2: inliers already satisfy cheirality.
+  for (int i : inliers) result.inliers[i] = true;
+  result.num_inliers = static_cast<int>(inliers.size());
+  if (result.num_inliers < options.min_inliers) {
+    result.status = SolverStatus::kTooFewInliers;
+    result.message = std::to_string(result.num_inliers) + " inliers < min_inliers " +
+                     std::to_string(options.min_inliers);
+    return result;
+  }
+  result.status = SolverStatus::kOk;
+  return result;
+}
+
+}  // namespace ccm::solvers

@@ -1,0 +1,53 @@
+// Two-view relative pose (essential matrix) from bearing correspondences: 5-point
+// (Stewenius or Nister) or 8-point minimal solvers inside OpenGV's RANSAC, the four-fold
+// decomposition disambiguated by cheirality, then nonlinear refinement on the inliers.
+// Translation is known only up to scale and is returned with unit norm.
+// Usage: options.ransac.focal_px = fx; auto r = EstimateRelativePose(b1, b2, options);
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "slam_core/geometry/se3.h"
+#include "slam_core/solvers/solver_common.h"
+
+namespace ccm::solvers {
+
+enum class RelativePoseAlgorithm { kStewenius5pt, kNister5pt, kEightPoint };
+
+struct RelativePoseOptions {
+  RelativePoseAlgorithm algorithm = RelativePoseAlgorithm::kStewenius5pt;
+  /// threshold_px bounds the angular reprojection error in each of the two views.
+  RansacOptions ransac;
+  /// Levenberg-Marquardt refinement of R, t on the RANSAC inliers (Sampson angular
+  /// error, Huber loss at half the threshold), then inliers re-selected.
+  bool refine = true;
+  /// Fewer inliers than this is a failure.
+  int min_inliers = 15;
+
+  std::string Validate() const;
+};
+
+struct RelativePoseResult {
+  SolverStatus status = SolverStatus::kInvalidInput;
+  std::string message;
+  /// Maps points from cam1 into cam2; |translation| = 1.
+  SE3 cam2_from_cam1;
+  /// inliers[i]: correspondence i fits the model and triangulates in front of both views.
+  std::vector<bool> inliers;
+  int num_inliers = 0;
+  int iterations = 0;
+
+  bool ok() const { return status == SolverStatus::kOk; }
+};
+
+/// bearings1[i] (cam1) and bearings2[i] (cam2) are unit vectors of the same point.
+RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bearings1,
+                                        const std::vector<Eigen::Vector3d>& bearings2,
+                                        const RelativePoseOptions& options);
+
+/// Essential matrix of a motion: x2^T E x1 = 0 for bearings x1 (cam1), x2 (cam2).
+Eigen::Matrix3d EssentialFromPose(const SE3& cam2_from_cam1);
+
+}  // namespace ccm::solvers

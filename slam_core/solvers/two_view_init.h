@@ -1,0 +1,75 @@
+// Monocular two-view initialization: fits an essential matrix (5-point RANSAC) and a
+// homography (4-point RANSAC) to the same bearing correspondences, picks one with the
+// ORB-SLAM score ratio R_H = S_H / (S_H + S_E), recovers the motion (homography:
+// the decomposition with the most points passing cheirality, parallax and error checks)
+// and triangulates the inliers. Translation has unit norm; points are in the cam1 frame.
+// Usage: TwoViewInitOptions o; o.focal_px = fx; auto r = InitializeTwoView(b1, b2, o);
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "slam_core/geometry/se3.h"
+#include "slam_core/solvers/relative_pose.h"
+#include "slam_core/solvers/solver_common.h"
+
+namespace ccm::solvers {
+
+enum class TwoViewModel { kNone, kEssential, kHomography };
+
+struct TwoViewInitOptions {
+  /// Focal length in pixels of the camera(s): converts pixel noise to angles. Required.
+  double focal_px = 0.0;
+  /// Keypoint noise (1 sigma, pixels). Thresholds are chi-square bounds in sigma units:
+  /// homography transfer and triangulation error sqrt(5.991) sigma, epipolar sqrt(3.841) sigma.
+  double sigma_px = 1.0;
+  int max_iterations = 200;
+  double confidence = 0.999;
+  std::uint64_t seed = 42;
+  RelativePoseAlgorithm essential_algorithm = RelativePoseAlgorithm::kStewenius5pt;
+  /// The homography is chosen when R_H exceeds this (ORB-SLAM 2: 0.40).
+  double min_homography_ratio = 0.40;
+  /// Median parallax of the triangulated points must reach this (degrees).
+  double min_parallax_deg = 1.0;
+  /// Points counted as triangulated need cos(parallax) below this (0.99998 ~ 0.36 deg).
+  double point_max_cos_parallax = 0.99998;
+  int min_triangulated = 50;
+  /// ...and at least this fraction of the chosen model's inliers.
+  double min_triangulated_fraction = 0.9;
+  /// Homography: the second-best motion must have < this fraction of the best's points.
+  double max_second_best_ratio = 0.75;
+
+  std::string Validate() const;
+};
+
+struct TwoViewInitResult {
+  SolverStatus status = SolverStatus::kInvalidInput;
+  std::string message;
+  TwoViewModel model = TwoViewModel::kNone;
+  /// S_H / (S_H + S_E); 0 when neither model scored.
+  double homography_ratio = 0.0;
+  /// Maps cam1 points into cam2; |translation| = 1.
+  SE3 cam2_from_cam1;
+  /// One entry per correspondence; set where the point passed all checks.
+  std::vector<std::optional<Eigen::Vector3d>> points_cam1;
+  int num_inliers = 0;        // of the chosen model
+  int num_triangulated = 0;
+  double median_parallax_deg = 0.0;
+
+  bool ok() const { return status == SolverStatus::kOk; }
+};
+
+TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings1,
+                                    const std::vector<Eigen::Vector3d>& bearings2,
+                                    const TwoViewInitOptions& options);
+
+/// ORB-SLAM model scores over all correspondences (sigma-normalized chi-square margins,
+/// both directions). Exposed for tests and diagnostics.
+double ScoreHomographyModel(const Eigen::Matrix3d& cam2_H_cam1, const std::vector<Eigen::Vector3d>& bearings1,
+                            const std::vector<Eigen::Vector3d>& bearings2, double focal_px, double sigma_px);
+double ScoreEssentialModel(const SE3& cam2_from_cam1, const std::vector<Eigen::Vector3d>& bearings1,
+                           const std::vector<Eigen::Vector3d>& bearings2, double focal_px, double sigma_px);
+
+}  // namespace ccm::solvers

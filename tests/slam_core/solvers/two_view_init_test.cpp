@@ -1,0 +1,103 @@
+#include <gtest/gtest.h>
+
+#include "slam_core/solvers/homography.h"
+#include "slam_core/solvers/two_view_init.h"
+#include "tests/slam_core/solvers/synthetic_scene.h"
+
+namespace ccm::solvers {
+namespace {
+
+using test::SceneGenerator;
+
+TwoViewInitOptions InitOptions(const SceneGenerator& gen) {
+  TwoViewInitOptions o;
+  o.focal_px = gen.camera().intrinsics().fx;
+  o.sigma_px = 1.0;
+  return o;
+}
+
+// Mean relative 3D error of the triangulated points after fixing the unknown scale with
+// the ground-truth baseline.
+double MeanRelativePointError(const TwoViewInitResult& r, const test::TwoViewData& d) {
+  const double scale = d.world_from_cam2.translation().norm();
+  double sum = 0.0;
+  int n = 0;
+  for (size_t i = 0; i < r.points_cam1.size(); ++i) {
+    if (!r.points_cam1[i] || d.is_outlier[i]) continue;
+    sum += (*r.points_cam1[i] * scale - d.points_world[i]).norm() / d.points_world[i].norm();
+    ++n;
+  }
+  return n > 0 ? sum / n : 1e9;
+}
+
+TEST(Homography, RansacRecoversPlaneInducedHomographyAndDecomposes) {
+  SceneGenerator gen(51);
+  const SE3 world_from_cam2 = test::MakePose(4, -6, 2, Eigen::Vector3d(0.5, 0.1, 0.1));
+  const test::TwoViewData d = gen.MakeTwoView(world_from_cam2, 500, 0.7, 0.4, /*plane=*/true);
+  HomographyOptions o;
+  o.ransac.focal_px = gen.camera().intrinsics().fx;
+  o.ransac.threshold_px = 2.5;
+  const HomographyResult h = EstimateHomography(d.bearings1, d.bearings2, o);
+  ASSERT_TRUE(h.ok()) << h.message;
+  int wrong = 0;
+  for (size_t i = 0; i < d.is_outlier.size(); ++i) wrong += (h.inliers[i] == d.is_outlier[i]);
+  EXPECT_LT(wrong, 0.1 * d.is_outlier.size());  // both transfer errors must pass: ~8 % of inliers drop at 0.7 px
+  // One of the decompositions is the true motion (translation up to the plane distance).
+  const SE3 gt = world_from_cam2.inverse();
+  double best = 1e9;
+  for (const HomographyMotion& m : DecomposeHomography(h.cam2_H_cam1)) {
+    const double rot = test::RotationErrorDeg(m.cam2_from_cam1.rotation(), gt.rotation());
+    const double dir = test::DirectionErrorDeg(m.cam2_from_cam1.translation(), gt.translation());
+    if (rot < 0.5) best = std::min(best, dir);
+  }
+  EXPECT_LT(best, 2.0);
+}
+
+TEST(TwoViewInit, PlanarSceneChoosesHomographyAndRecoversMotion) {
+  SceneGenerator gen(52);
+  const SE3 world_from_cam2 = test::MakePose(4, -6, 2, Eigen::Vector3d(0.6, 0.1, 0.1));
+  const test::TwoViewData d = gen.MakeTwoView(world_from_cam2, 500, 0.5, 0.3, /*plane=*/true);
+  const TwoViewInitResult r = InitializeTwoView(d.bearings1, d.bearings2, InitOptions(gen));
+  ASSERT_TRUE(r.ok()) << SolverStatusName(r.status) << ": " << r.message;
+  EXPECT_EQ(r.model, TwoViewModel::kHomography) << "R_H = " << r.homography_ratio;
+  EXPECT_GT(r.homography_ratio, 0.4);
+  const SE3 gt = world_from_cam2.inverse();
+  EXPECT_LT(test::RotationErrorDeg(r.cam2_from_cam1.rotation(), gt.rotation()), 0.5);
+  EXPECT_LT(test::DirectionErrorDeg(r.cam2_from_cam1.translation(), gt.translation()), 2.0);
+  EXPECT_GT(r.num_triangulated, 300);
+  EXPECT_LT(MeanRelativePointError(r, d), 0.03);
+}
+
+TEST(TwoViewInit, GeneralSceneChoosesEssentialAndTriangulates) {
+  SceneGenerator gen(53);
+  const SE3 world_from_cam2 = test::MakePose(3, -8, 2, Eigen::Vector3d(0.6, 0.1, 0.15));
+  const test::TwoViewData d = gen.MakeTwoView(world_from_cam2, 500, 0.5, 0.3);
+  const TwoViewInitResult r = InitializeTwoView(d.bearings1, d.bearings2, InitOptions(gen));
+  ASSERT_TRUE(r.ok()) << SolverStatusName(r.status) << ": " << r.message;
+  EXPECT_EQ(r.model, TwoViewModel::kEssential) << "R_H = " << r.homography_ratio;
+  EXPECT_LT(r.homography_ratio, 0.3);
+  const SE3 gt = world_from_cam2.inverse();
+  EXPECT_LT(test::RotationErrorDeg(r.cam2_from_cam1.rotation(), gt.rotation()), 0.5);
+  EXPECT_LT(test::DirectionErrorDeg(r.cam2_from_cam1.translation(), gt.translation()), 2.0);
+  EXPECT_GT(r.median_parallax_deg, 1.0);
+  EXPECT_GT(r.num_triangulated, 300);
+  EXPECT_LT(MeanRelativePointError(r, d), 0.03);
+  for (size_t i = 0; i < d.is_outlier.size(); ++i) {
+    if (r.points_cam1[i]) {
+      EXPECT_GT(r.points_cam1[i]->z(), 0.0);
+    }
+  }
+}
+
+TEST(TwoViewInit, TinyBaselineIsRejectedForLowParallax) {
+  SceneGenerator gen(54);
+  const SE3 world_from_cam2 = test::MakePose(0, -1, 0, Eigen::Vector3d(0.03, 0, 0));
+  const test::TwoViewData d = gen.MakeTwoView(world_from_cam2, 400, 0.3, 0.1);
+  const TwoViewInitResult r = InitializeTwoView(d.bearings1, d.bearings2, InitOptions(gen));
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(r.status == SolverStatus::kLowParallax || r.status == SolverStatus::kTooFewInliers)
+      << SolverStatusName(r.status) << ": " << r.message;
+}
+
+}  // namespace
+}  // namespace ccm::solvers
