@@ -18,13 +18,14 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-ceres::LinearSolverType ToCeres(BaLinearSolver solver) {
+ceres::LinearSolverType ToCeres(BaLinearSolver solver, int num_free_poses) {
   switch (solver) {
     case BaLinearSolver::kIterativeSchur: return ceres::ITERATIVE_SCHUR;
     case BaLinearSolver::kDenseSchur: return ceres::DENSE_SCHUR;
-    case BaLinearSolver::kSparseSchur: break;
+    case BaLinearSolver::kSparseSchur: return ceres::SPARSE_SCHUR;
+    case BaLinearSolver::kAuto: break;
   }
-  return ceres::SPARSE_SCHUR;
+  return num_free_poses <= kDenseSchurMaxFreePoses ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
 }
 
 ceres::Problem::Options ProblemOptionsNotOwning() {
@@ -85,6 +86,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   std::vector<bool> pose_added(problem.poses.size(), false), point_added(problem.points.size(), false);
   bool any_free_point = false;
+  int num_free_poses = 0;
   for (size_t i = 0; i < problem.observations.size(); ++i) {
     if (!active[i]) continue;
     const Observation& o = problem.observations[i];
@@ -97,6 +99,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
       pose_added[o.pose_index] = true;
       cp.SetManifold(pose, manifold.get());
       if (v->pose_fixed[o.pose_index]) cp.SetParameterBlockConstant(pose);
+      num_free_poses += v->pose_fixed[o.pose_index] ? 0 : 1;
       ordering->AddElementToGroup(pose, 1);
     }
     if (!point_added[o.point_index]) {
@@ -111,7 +114,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
   so.num_threads = options.num_threads;
   so.function_tolerance = options.function_tolerance;
   so.initial_trust_region_radius = options.initial_trust_region_radius;
-  so.linear_solver_type = any_free_point ? ToCeres(options.linear_solver) : ceres::DENSE_QR;
+  so.linear_solver_type = any_free_point ? ToCeres(options.linear_solver, num_free_poses) : ceres::DENSE_QR;
   if (any_free_point) so.linear_solver_ordering = ordering;
   if (options.linear_solver == BaLinearSolver::kIterativeSchur) so.preconditioner_type = ceres::SCHUR_JACOBI;
   so.sparse_linear_algebra_library_type =

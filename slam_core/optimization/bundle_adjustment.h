@@ -43,7 +43,10 @@ OptimizationSummary OptimizePose(const CameraModel& camera,
                                  const std::vector<PointObservation>& observations,
                                  SE3* world_from_cam, const PoseOptimizerOptions& options = {});
 
-enum class BaLinearSolver { kSparseSchur, kIterativeSchur, kDenseSchur };
+/// kAuto: DENSE_SCHUR up to kDenseSchurMaxFreePoses free poses (local BA windows), else
+/// SPARSE_SCHUR (SuiteSparse when Ceres has it, else Eigen's sparse Cholesky).
+enum class BaLinearSolver { kAuto, kSparseSchur, kIterativeSchur, kDenseSchur };
+inline constexpr int kDenseSchurMaxFreePoses = 40;
 
 /// Shared by local and global BA. Pass 1 runs `robust_iterations` with a Huber loss. If
 /// reject_outliers, observations with chi2 > threshold (or unprojectable) are dropped and
@@ -56,8 +59,7 @@ struct BundleAdjusterOptions {
   double chi2_threshold = kChi2Mono2Dof;
   double huber_delta = 2.447;  ///< whitened units; sqrt(5.991)
   int num_threads = 1;         ///< Ceres worker threads (Jacobians, Schur elimination)
-  /// SPARSE_SCHUR uses SuiteSparse when Ceres has it, else Eigen's sparse Cholesky.
-  BaLinearSolver linear_solver = BaLinearSolver::kSparseSchur;
+  BaLinearSolver linear_solver = BaLinearSolver::kAuto;
   /// Gauge: if no pose in the problem is fixed, fix the first observed pose. Monocular
   /// maps also have a free scale; it is left to the solver's damping (it barely moves).
   bool fix_first_pose_if_none_fixed = true;

@@ -15,6 +15,7 @@ std::string PoseGraphOptions::Validate() const {
   if (max_iterations < 1) return "max_iterations must be >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   if (!(function_tolerance > 0.0)) return "function_tolerance must be > 0";
+  if (!(initial_trust_region_radius > 0.0)) return "initial_trust_region_radius must be > 0";
   return "";
 }
 
@@ -90,6 +91,7 @@ OptimizationSummary OptimizePoseGraph(PoseGraphProblem* problem, const PoseGraph
   so.max_num_iterations = options.max_iterations;
   so.num_threads = options.num_threads;
   so.function_tolerance = options.function_tolerance;
+  so.initial_trust_region_radius = options.initial_trust_region_radius;
   ceres::Solver::Summary s;
   ceres::Solve(so, &cp, &s);
   out.usable = s.IsSolutionUsable();

@@ -9,7 +9,7 @@
 
 #include "slam_core/optimization/bundle_adjustment.h"
 #include "slam_core/optimization/pose_manifold.h"
-#include "slam_core/optimization/reprojection_cost.h"
+#include "slam_core/optimization/reprojection_cost_analytic.h"
 
 namespace ccm::opt {
 namespace {
@@ -21,7 +21,7 @@ ceres::Solver::Summary RunPosePass(const CameraModel& camera, const std::vector<
   ceres::LossFunction* loss = robust ? new ceres::HuberLoss(options.huber_delta) : nullptr;
   for (size_t i = 0; i < obs.size(); ++i) {
     if (!active[i]) continue;
-    cp.AddResidualBlock(PoseOnlyReprojectionError::Create(&camera, obs[i].point_w, obs[i].uv_px, obs[i].sigma_px),
+    cp.AddResidualBlock(PoseOnlyCostAnalytic::Create(&camera, obs[i].point_w, obs[i].uv_px, obs[i].sigma_px),
                         loss, cam_from_world->data());
   }
   ceres::Solver::Summary summary;

@@ -30,8 +30,9 @@ testing::Scene BigScene() {
   return testing::MakeScene(so);
 }
 
-void PrintRow(const char* what, const std::string& size, double value, const char* unit, const std::string& note) {
-  std::printf("| %-22s | %-34s | %9.3f %-2s | %s\n", what, size.c_str(), value, unit, note.c_str());
+void PrintRow(const char* what, const std::string& size, double value, double cpu, const char* unit,
+              const std::string& note) {
+  std::printf("| %-18s | %-36s | %9.3f %-2s | %9.3f %-2s | %s\n", what, size.c_str(), value, unit, cpu, unit, note.c_str());
 }
 
 // Process CPU seconds (all threads): on a shared, loaded machine wall time alone misleads.
@@ -51,9 +52,9 @@ void BenchGlobalBa(const testing::Scene& scene, int threads, BaLinearSolver solv
   const double cpu = CpuSeconds() - cpu0;
   char size[96], note[160];
   std::snprintf(size, sizeof(size), "%zu KF, %zu pts, %zu obs", p.poses.size(), p.points.size(), p.observations.size());
-  std::snprintf(note, sizeof(note), "%s, %d thr, %d it, cpu %.2f s, RMSE %.2f -> %.2f px%s", name, threads, s.iterations,
-                cpu, rmse0, ReprojectionRmsePx(p), s.usable ? "" : " FAILED");
-  PrintRow("global BA", size, s.solve_time_s, "s", note);
+  std::snprintf(note, sizeof(note), "%s, %d thr, %d it, RMSE %.2f -> %.2f px%s", name, threads, s.iterations, rmse0,
+                ReprojectionRmsePx(p), s.usable ? "" : " FAILED");
+  PrintRow("global BA", size, s.solve_time_s, cpu, "s", note);
 }
 
 // ORB-SLAM's local BA problem: a window of keyframes, all their points, and every other
@@ -82,8 +83,11 @@ BundleProblem ExtractWindow(const BundleProblem& full, int first, int count) {
   return w;
 }
 
-void BenchLocalBa(const testing::Scene& scene) {
+void BenchLocalBa(const testing::Scene& scene, BaLinearSolver solver, const char* name) {
   const BundleProblem window = ExtractWindow(scene.problem, 200, 20);
+  BundleAdjusterOptions o = LocalBaDefaults();
+  o.linear_solver = solver;
+  const double cpu0 = CpuSeconds();
   const int runs = 5;
   double total = 0;
   int fixed = 0;
@@ -93,13 +97,14 @@ void BenchLocalBa(const testing::Scene& scene) {
     BundleProblem p = window;
     std::mt19937 rng(r);
     testing::Perturb(&p, 0.3, 0.02, 0.03, &rng);
-    s = LocalBundleAdjustment(&p);
+    s = LocalBundleAdjustment(&p, o);
     total += s.solve_time_s;
   }
   char size[96], note[128];
   std::snprintf(size, sizeof(size), "20+%d fixed KF, %zu pts, %zu obs", fixed, window.points.size(), window.observations.size());
-  std::snprintf(note, sizeof(note), "1 thr, 5+10 it, %d inliers, mean of %d", s.num_inliers, runs);
-  PrintRow("local BA", size, 1000.0 * total / runs, "ms", note);
+  const double cpu = CpuSeconds() - cpu0;
+  std::snprintf(note, sizeof(note), "%s, 1 thr, 5+10 it, %d inliers, mean of %d", name, s.num_inliers, runs);
+  PrintRow("local BA", size, 1000.0 * total / runs, 1000.0 * cpu / runs, "ms", note);
 }
 
 void BenchPoseOnly(const testing::Scene& scene) {
@@ -115,6 +120,7 @@ void BenchPoseOnly(const testing::Scene& scene) {
   const int runs = 100;
   double total = 0;
   OptimizationSummary s;
+  const double cpu0 = CpuSeconds();
   for (int r = 0; r < runs; ++r) {
     SE3 pose(scene.gt_world_from_cam[123].rotation(), scene.gt_world_from_cam[123].translation() + Eigen::Vector3d(0.05, 0.03, -0.04));
     s = OptimizePose(*scene.problem.cameras[0], obs, &pose);
@@ -123,7 +129,7 @@ void BenchPoseOnly(const testing::Scene& scene) {
   char size[96], note[128];
   std::snprintf(size, sizeof(size), "%zu obs, 20%% outliers", obs.size());
   std::snprintf(note, sizeof(note), "4 rounds x 10 it, %d inliers, mean of %d", s.num_inliers, runs);
-  PrintRow("pose-only", size, 1000.0 * total / runs, "ms", note);
+  PrintRow("pose-only", size, 1000.0 * total / runs, 1000.0 * (CpuSeconds() - cpu0) / runs, "ms", note);
 }
 
 // 1000 keyframes on a drifting loop: spanning tree + 2 covisibility edges per keyframe + loop.
@@ -154,12 +160,14 @@ void BenchPoseGraph(int threads) {
   g.edges.push_back(Sim3Edge{n - 1, 0, Sim3(scale, rel.rotation(), scale * rel.translation()), 10.0, Sim3EdgeKind::kLoop});
   PoseGraphOptions o;
   o.num_threads = threads;
+  const double cpu0 = CpuSeconds();
   const OptimizationSummary s = OptimizePoseGraph(&g, o);
+  const double cpu = CpuSeconds() - cpu0;
   char size[96], note[128];
   std::snprintf(size, sizeof(size), "%d nodes, %zu edges", n, g.edges.size());
   std::snprintf(note, sizeof(note), "%d thr, %d it, cost %.3g -> %.3g%s", threads, s.iterations, s.initial_cost, s.final_cost,
                 s.usable ? "" : " FAILED");
-  PrintRow("Sim(3) pose graph", size, s.solve_time_s, "s", note);
+  PrintRow("Sim(3) pose graph", size, s.solve_time_s, cpu, "s", note);
 }
 
 }  // namespace
@@ -172,12 +180,13 @@ int main(int argc, char** argv) {
   double load[1] = {0};
   if (getloadavg(load, 1) == 1) std::printf("load average at start: %.2f\n", load[0]);
   std::printf("synthetic map generated in %.2f s (1 px noise at sigma 1.2^level, levels 0-3)\n", gen_s);
-  std::printf("| %-22s | %-34s | %12s | %s\n", "optimizer", "problem", "time", "notes");
+  std::printf("| %-18s | %-36s | %12s | %12s | %s\n", "optimizer", "problem", "wall", "cpu (all thr)", "notes");
   BenchGlobalBa(scene, threads, BaLinearSolver::kSparseSchur, "SPARSE_SCHUR");
   if (argc > 2 && std::string(argv[2]) == "--iterative") {
     BenchGlobalBa(scene, threads, BaLinearSolver::kIterativeSchur, "ITERATIVE_SCHUR");
   }
-  BenchLocalBa(scene);
+  BenchLocalBa(scene, BaLinearSolver::kDenseSchur, "DENSE_SCHUR");
+  BenchLocalBa(scene, BaLinearSolver::kSparseSchur, "SPARSE_SCHUR");
   BenchPoseOnly(scene);
   BenchPoseGraph(threads);
   return 0;

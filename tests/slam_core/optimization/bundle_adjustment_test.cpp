@@ -76,6 +76,14 @@ TEST(ReprojectionCost, AnalyticMatchesAutodiffInTangentSpace) {
       EXPECT_LT((ra - rn).norm(), 1e-9);
       EXPECT_LT((jpa * plus - jpn * plus).norm(), 1e-7 * (1.0 + (jpa * plus).norm()));
       EXPECT_LT((jxa - jxn).norm(), 1e-7 * (1.0 + jxa.norm()));
+      // Pose-only twins.
+      std::unique_ptr<ceres::CostFunction> pad(
+          PoseOnlyReprojectionError::Create(camera.get(), X, Eigen::Vector2d(300, 200), 1.2));
+      std::unique_ptr<ceres::CostFunction> pan(PoseOnlyCostAnalytic::Create(camera.get(), X, Eigen::Vector2d(300, 200), 1.2));
+      ASSERT_TRUE(pad->Evaluate(params, ra.data(), ja));
+      ASSERT_TRUE(pan->Evaluate(params, rn.data(), jn));
+      EXPECT_LT((ra - rn).norm(), 1e-9);
+      EXPECT_LT((jpa * plus - jpn * plus).norm(), 1e-7 * (1.0 + (jpa * plus).norm()));
     }
   }
 }
