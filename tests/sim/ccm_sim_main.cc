@@ -3,7 +3,7 @@
 //   ccm_sim --list | --dump NAME
 #include <chrono>
 #include <cstdio>
-#include <iostream>
+#include <optional>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -32,88 +32,95 @@ bool ParseAgentList(const std::string& text, int n_agents, std::vector<int>* out
   return !out->empty();
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"ccm_sim: photometric multi-agent scene simulator writing EuRoC ASL folders"};
-  std::string scenario_name = "hall3", out_dir, agents_text, dump;
+struct CliOptions {
+  std::string scenario = "hall3", out_dir, agents, dump;
   double seconds = -1.0, rate = -1.0;
   long long seed = -1;
   bool fisheye = false, list = false;
-  app.add_option("--scenario", scenario_name, "built-in scenario name or YAML file")->capture_default_str();
-  app.add_option("--out", out_dir, "output folder (one sub-folder per agent)");
-  app.add_option("--agents", agents_text, "comma-separated agent indices, default all");
-  app.add_option("--seconds", seconds, "flight duration per agent [s], overrides the scenario");
-  app.add_option("--rate", rate, "camera rate [Hz], overrides the scenario");
-  app.add_option("--seed", seed, "random seed (textures, noise), overrides the scenario");
-  app.add_flag("--fisheye", fisheye, "use the equidistant fisheye camera");
-  app.add_flag("--list", list, "list the built-in scenarios and exit");
-  app.add_option("--dump", dump, "print the YAML of a built-in scenario and exit");
-  CLI11_PARSE(app, argc, argv);
+};
 
-  if (list) {
-    for (const auto& [name, text] : ccm::sim::BuiltinScenarios()) std::printf("%-10s %s\n", name.c_str(), text.c_str());
-    return 0;
+// Loads the scenario and applies the command-line overrides; nullopt + *error on failure.
+std::optional<ccm::sim::Scenario> PrepareScenario(const CliOptions& o, std::string* error) {
+  if (o.seconds == 0.0 || o.rate == 0.0) {
+    *error = "--seconds and --rate must be > 0";
+    return std::nullopt;
   }
-  if (!dump.empty()) {
-    const auto text = ccm::sim::BuiltinScenarioYaml(dump);
-    if (!text) {
-      std::fprintf(stderr, "error: no built-in scenario '%s' (see --list)\n", dump.c_str());
-      return 2;
-    }
-    std::fputs(text->c_str(), stdout);
-    return 0;
-  }
-  if (out_dir.empty()) {
-    std::fprintf(stderr, "error: --out DIR is required (or use --list)\n");
-    return 2;
-  }
-  std::string error;
-  auto scenario = ccm::sim::LoadScenario(scenario_name, &error);
-  if (!scenario) {
-    std::fprintf(stderr, "error: %s\n", error.c_str());
-    return 2;
-  }
+  auto scenario = ccm::sim::LoadScenario(o.scenario, error);
+  if (!scenario) return std::nullopt;
   for (auto& a : scenario->agents) {
-    if (seconds > 0) a.trajectory.duration_s = seconds;
-    if (rate > 0) a.rate_hz = rate;
+    if (o.seconds > 0) a.trajectory.duration_s = o.seconds;
+    if (o.rate > 0) a.rate_hz = o.rate;
   }
-  if (seconds == 0.0 || rate == 0.0) {
-    std::fprintf(stderr, "error: --seconds and --rate must be > 0\n");
-    return 2;
-  }
-  if (seed >= 0) scenario->seed = static_cast<std::uint64_t>(seed);
-  if (fisheye) scenario->camera = ccm::sim::FisheyeCamera();
-  std::vector<int> agents;
-  if (agents_text.empty()) {
-    for (size_t i = 0; i < scenario->agents.size(); ++i) agents.push_back(static_cast<int>(i));
-  } else if (!ParseAgentList(agents_text, static_cast<int>(scenario->agents.size()), &agents, &error)) {
-    std::fprintf(stderr, "error: %s\n", error.c_str());
-    return 2;
-  }
-  std::printf("building world '%s' (%zu objects)...\n", scenario->name.c_str(), scenario->world.objects.size());
-  std::fflush(stdout);
-  auto sim = ccm::sim::Simulation::Create(*scenario, &error);
-  if (!sim) {
-    std::fprintf(stderr, "error: %s\n", error.c_str());
-    return 2;
-  }
+  if (o.seed >= 0) scenario->seed = static_cast<std::uint64_t>(o.seed);
+  if (o.fisheye) scenario->camera = ccm::sim::FisheyeCamera();
+  return scenario;
+}
+
+int WriteAgents(const ccm::sim::Simulation& sim, const std::vector<int>& agents, const std::string& out_dir) {
   for (int a : agents) {
     const auto start = std::chrono::steady_clock::now();
     const auto progress = [&](std::int64_t done, std::int64_t total) {
       if (done % 100 != 0 && done != total) return;
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::printf("\r%s: %lld/%lld frames (%.1f fps)", sim->agent_name(a).c_str(), static_cast<long long>(done),
+      std::printf("\r%s: %lld/%lld frames (%.1f fps)", sim.agent_name(a).c_str(), static_cast<long long>(done),
                   static_cast<long long>(total), done / std::max(s, 1e-9));
       std::fflush(stdout);
     };
-    error = ccm::sim::WriteEurocAgent(*sim, a, out_dir, -1, progress);
+    const std::string error = ccm::sim::WriteEurocAgent(sim, a, out_dir, -1, progress);
     std::printf("\n");
     if (!error.empty()) {
-      std::fprintf(stderr, "error: agent %s: %s\n", sim->agent_name(a).c_str(), error.c_str());
+      std::fprintf(stderr, "error: agent %s: %s\n", sim.agent_name(a).c_str(), error.c_str());
       return 1;
     }
   }
   std::printf("wrote %zu agent folder(s) under %s\n", agents.size(), out_dir.c_str());
   return 0;
+}
+
+int Fail(const std::string& error) {
+  std::fprintf(stderr, "error: %s\n", error.c_str());
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ccm_sim: photometric multi-agent scene simulator writing EuRoC ASL folders"};
+  CliOptions o;
+  app.add_option("--scenario", o.scenario, "built-in scenario name or YAML file")->capture_default_str();
+  app.add_option("--out", o.out_dir, "output folder (one sub-folder per agent)");
+  app.add_option("--agents", o.agents, "comma-separated agent indices, default all");
+  app.add_option("--seconds", o.seconds, "flight duration per agent [s], overrides the scenario");
+  app.add_option("--rate", o.rate, "camera rate [Hz], overrides the scenario");
+  app.add_option("--seed", o.seed, "random seed (textures, noise), overrides the scenario");
+  app.add_flag("--fisheye", o.fisheye, "use the equidistant fisheye camera");
+  app.add_flag("--list", o.list, "list the built-in scenarios and exit");
+  app.add_option("--dump", o.dump, "print the YAML of a built-in scenario and exit");
+  CLI11_PARSE(app, argc, argv);
+
+  if (o.list) {
+    for (const auto& [name, text] : ccm::sim::BuiltinScenarios()) std::printf("%-10s %s\n", name.c_str(), text.c_str());
+    return 0;
+  }
+  if (!o.dump.empty()) {
+    const auto text = ccm::sim::BuiltinScenarioYaml(o.dump);
+    if (!text) return Fail("no built-in scenario '" + o.dump + "' (see --list)");
+    std::fputs(text->c_str(), stdout);
+    return 0;
+  }
+  if (o.out_dir.empty()) return Fail("--out DIR is required (or use --list)");
+  std::string error;
+  const auto scenario = PrepareScenario(o, &error);
+  if (!scenario) return Fail(error);
+  std::vector<int> agents;
+  if (o.agents.empty()) {
+    for (size_t i = 0; i < scenario->agents.size(); ++i) agents.push_back(static_cast<int>(i));
+  } else if (!ParseAgentList(o.agents, static_cast<int>(scenario->agents.size()), &agents, &error)) {
+    return Fail(error);
+  }
+  std::printf("building world '%s' (%zu objects)...\n", scenario->name.c_str(), scenario->world.objects.size());
+  std::fflush(stdout);
+  const auto sim = ccm::sim::Simulation::Create(*scenario, &error);
+  if (!sim) return Fail(error);
+  return WriteAgents(*sim, agents, o.out_dir);
 }

@@ -67,7 +67,8 @@ std::string WriteEurocAgent(const Simulation& sim, int agent, const std::string&
   for (std::int64_t i = 0; i < n; ++i) {
     const std::int64_t stamp = sim.StampNs(agent, i);
     const std::string name = std::to_string(stamp) + ".png";
-    if (!cv::imwrite((cam0 / "data" / name).string(), sim.RenderFrame(agent, i)))
+    // Fast PNG compression: writing, not rendering, would otherwise dominate.
+    if (!cv::imwrite((cam0 / "data" / name).string(), sim.RenderFrame(agent, i), {cv::IMWRITE_PNG_COMPRESSION, 1}))
       return "cannot write image " + (cam0 / "data" / name).string();
     images << stamp << "," << name << "\n";
     const SE3 pose = sim.WorldFromCam(agent, i);
