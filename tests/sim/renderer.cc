@@ -238,7 +238,7 @@ cv::Mat Renderer::RenderRadiance(const SE3& world_from_cam) const {
     const MipTexture& tex = textures[s.texture];
     // Footprint of the pixel on the surface in texels; the oblique axis is stretched by
     // 1/cos(incidence), `anisotropy` picks between the short and the long axis.
-    const float footprint = static_cast<float>(hit->t) * pixel_angle_[i] / static_cast<float>(tex.texel_m());
+    const float footprint = static_cast<float>(hit->t) * pixel_angle_[i] * tex.inv_texel_m();
     const float stretch = 1.0f / std::max(static_cast<float>(hit->cos_incidence), 1e-3f);
     const float lod = FastLog2(std::max(footprint, 1e-6f)) + aniso * FastLog2(stretch) + lod_bias;
     // Texture images are drawn x right / y down, seen from the front, and u x v points

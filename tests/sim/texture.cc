@@ -29,7 +29,8 @@ const char* TextureStyleName(TextureStyle style) {
   return "?";
 }
 
-MipTexture::MipTexture(const cv::Mat& base, double texel_m) : texel_m_(texel_m) {
+MipTexture::MipTexture(const cv::Mat& base, double texel_m)
+    : texel_m_(texel_m), inv_texel_m_(static_cast<float>(1.0 / texel_m)) {
   if (base.type() != CV_8UC1 || base.empty()) throw std::invalid_argument("texture must be CV_8UC1");
   levels_.push_back(base.clone());
   while (std::min(levels_.back().cols, levels_.back().rows) > 2) {

@@ -39,6 +39,7 @@ class MipTexture {
   float Sample(double u_m, double v_m, float lod) const;
 
   double texel_m() const { return texel_m_; }
+  float inv_texel_m() const { return inv_texel_m_; }
   int levels() const { return static_cast<int>(levels_.size()); }
   const cv::Mat& level(int i) const { return levels_[i]; }
 
@@ -47,6 +48,7 @@ class MipTexture {
 
   std::vector<cv::Mat> levels_;
   double texel_m_;
+  float inv_texel_m_;  // multiplications instead of divisions in the per-pixel lookup
 };
 
 // Inline: called once or twice per rendered pixel.
@@ -74,8 +76,8 @@ inline float MipTexture::Sample(double u_m, double v_m, float lod) const {
   lod = std::min(std::max(lod, 0.0f), max_level);
   const int l0 = static_cast<int>(lod);
   const float frac = lod - static_cast<float>(l0);
-  const float x = static_cast<float>(u_m / texel_m_);
-  const float y = static_cast<float>(v_m / texel_m_);
+  const float x = static_cast<float>(u_m) * inv_texel_m_;
+  const float y = static_cast<float>(v_m) * inv_texel_m_;
   // Texel centres: level l texel i covers [i, i+1) * 2^l level-0 texels.
   const float s0 = 1.0f / static_cast<float>(1 << l0);
   const float a = Bilinear(l0, x * s0 - 0.5f, y * s0 - 0.5f);
