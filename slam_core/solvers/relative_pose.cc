@@ -61,13 +61,16 @@ SE3 Perturb(const SE3& T, const Eigen::Matrix<double, 5, 1>& d) {
   return SE3(dq * T.rotation(), (t + d(3) * e1 + d(4) * e2).normalized());
 }
 
+// Cauchy loss: redescending, so a borderline outlier that slipped into the inlier set
+// has almost no pull (a Huber loss still let such points bend the translation by degrees).
 struct RobustCost {
-  double huber;  // radians
-  double Weight(double r) const { return std::abs(r) <= huber ? 1.0 : huber / std::abs(r); }
-  double Rho(double r) const { return std::abs(r) <= huber ? r * r : 2.0 * huber * std::abs(r) - huber * huber; }
+  double scale;  // radians
+  double Weight(double r) const { return 1.0 / (1.0 + (r * r) / (scale * scale)); }
+  double Rho(double r) const { return scale * scale * std::log1p((r * r) / (scale * scale)); }
 };
 
-double TotalCost(const SE3& T, const opengv::bearingVectors_t& f1, const opengv::bearingVectors_t& f2,
+template <class Bearings>
+double TotalCost(const SE3& T, const Bearings& f1, const Bearings& f2,
                  const std::vector<int>& idx, const RobustCost& cost) {
   const Eigen::Matrix3d E = EssentialFromPose(T);
   double c = 0.0;
@@ -75,11 +78,12 @@ double TotalCost(const SE3& T, const opengv::bearingVectors_t& f1, const opengv:
   return c;
 }
 
-// Levenberg-Marquardt with a Huber loss (accidental inliers near the threshold must not
-// pull the solution) and forward-difference Jacobians (5 parameters, cheap residuals).
-SE3 RefineRelativePose(const SE3& initial, const opengv::bearingVectors_t& f1, const opengv::bearingVectors_t& f2,
-                       const std::vector<int>& idx, double huber_rad) {
-  const RobustCost cost{huber_rad};
+// Levenberg-Marquardt (IRLS weights) with a Cauchy loss and forward-difference Jacobians
+// (5 parameters, cheap residuals).
+template <class Bearings>
+SE3 RefineLm(const SE3& initial, const Bearings& f1, const Bearings& f2, const std::vector<int>& idx,
+             double loss_scale_rad) {
+  const RobustCost cost{loss_scale_rad};
   SE3 T = NormalizeTranslation(initial);
   double current = TotalCost(T, f1, f2, idx, cost), lambda = 1e-4;
   constexpr double kStep = 1e-7;
@@ -120,6 +124,45 @@ SE3 RefineRelativePose(const SE3& initial, const opengv::bearingVectors_t& f1, c
   return T;
 }
 
+// OpenGV scores every hypothesis by triangulating all points (the dominant cost at 500
+// correspondences). Hypotheses are scored here with the squared Sampson angle instead,
+// which needs no triangulation; cheirality is checked once at the end (FinalInliers).
+class SampsonScoredProblem : public Problem {
+ public:
+  SampsonScoredProblem(adapter_t& adapter, algorithm_t algorithm, const opengv::bearingVectors_t& f1,
+                       const opengv::bearingVectors_t& f2)
+      : Problem(adapter, algorithm, false), f1_(f1), f2_(f2) {}
+
+  void getSelectedDistancesToModel(const model_t& model, const std::vector<int>& indices,
+                                   std::vector<double>& scores) const override {
+    const Eigen::Matrix3d E = EssentialFromPose(FromOpenGv(model));
+    for (int i : indices) {
+      const double r = SampsonAngle(E, f1_[i], f2_[i]);
+      scores.push_back(r * r);
+    }
+  }
+
+  /// Inliers under both the Sampson test and OpenGV's triangulating residual, which
+  /// compares signed rays: a point behind either camera scores ~2 and is rejected.
+  std::vector<int> FinalInliers(const model_t& model, double sampson_threshold, double opengv_threshold) const {
+    std::vector<int> candidates, inliers;
+    std::vector<double> sampson, triangulated;
+    getSelectedDistancesToModel(model, *indices_, sampson);
+    for (size_t k = 0; k < sampson.size(); ++k) {
+      if (sampson[k] < sampson_threshold) candidates.push_back((*indices_)[k]);
+    }
+    Problem::getSelectedDistancesToModel(model, candidates, triangulated);
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      if (triangulated[k] < opengv_threshold) inliers.push_back(candidates[k]);
+    }
+    return inliers;
+  }
+
+ private:
+  const opengv::bearingVectors_t& f1_;
+  const opengv::bearingVectors_t& f2_;
+};
+
 }  // namespace
 
 std::string RelativePoseOptions::Validate() const {
@@ -134,6 +177,12 @@ Eigen::Matrix3d EssentialFromPose(const SE3& cam2_from_cam1) {
   Eigen::Matrix3d tx;
   tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
   return tx * cam2_from_cam1.rotation_matrix();
+}
+
+SE3 RefineRelativePose(const SE3& cam2_from_cam1, const std::vector<Eigen::Vector3d>& bearings1,
+                       const std::vector<Eigen::Vector3d>& bearings2, const std::vector<int>& indices,
+                       double loss_scale_rad) {
+  return RefineLm(cam2_from_cam1, bearings1, bearings2, indices, loss_scale_rad);
 }
 
 RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bearings1,
@@ -151,7 +200,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
   const opengv::bearingVectors_t f1 = internal::ToOpenGv(bearings1);
   const opengv::bearingVectors_t f2 = internal::ToOpenGv(bearings2);
   opengv::relative_pose::CentralRelativeAdapter adapter(f1, f2);
-  auto problem = std::make_shared<Problem>(adapter, ToOpenGv(options.algorithm), false);
+  auto problem = std::make_shared<SampsonScoredProblem>(adapter, ToOpenGv(options.algorithm), f1, f2);
   if (n < std::max(problem->getSampleSize(), options.min_inliers)) {
     result.status = SolverStatus::kTooFewPoints;
     result.message = "need at least " + std::to_string(std::max(problem->getSampleSize(), options.min_inliers)) +
@@ -160,10 +209,13 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
   }
   internal::SeedOpenGvProblem(problem.get(), options.ransac.seed);
 
-  opengv::sac::Ransac<Problem> ransac;
+  opengv::sac::Ransac<SampsonScoredProblem> ransac;
   ransac.sac_model_ = problem;
-  // Residual per correspondence = sum over both views of (1 - cos(angle)).
-  ransac.threshold_ = 2.0 * internal::OneMinusCos(options.ransac.ThresholdAngleRad());
+  // Squared Sampson angle ~ a1^2 + a2^2 over the two views: both within theta -> 2 theta^2.
+  const double theta = options.ransac.ThresholdAngleRad();
+  ransac.threshold_ = 2.0 * theta * theta;
+  // OpenGV residual = sum over both views of (1 - cos(angle)).
+  const double opengv_threshold = 2.0 * internal::OneMinusCos(theta);
   ransac.max_iterations_ = options.ransac.max_iterations;
   ransac.probability_ = options.ransac.confidence;
   if (!ransac.computeModel(0)) {
@@ -177,9 +229,9 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
   if (options.refine && static_cast<int>(inliers.size()) >= options.min_inliers) {
     // Refine, then re-select inliers under the refined model with OpenGV's residual
     // (which also enforces cheirality); one more round helps after a noisy minimal sample.
-    const double huber = 0.5 * options.ransac.ThresholdAngleRad();
+    const double loss_scale = 0.5 * theta;
     for (int round = 0; round < 2; ++round) {
-      const SE3 refined = RefineRelativePose(FromOpenGv(model), f1, f2, inliers, huber);
+      const SE3 refined = RefineLm(FromOpenGv(model), f1, f2, inliers, loss_scale);
       const opengv::transformation_t refined_model = ToOpenGvModel(refined);
       std::vector<int> refined_inliers;
       problem->selectWithinDistance(refined_model, ransac.threshold_, refined_inliers);
@@ -190,9 +242,8 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
       inliers.swap(refined_inliers);
     }
   }
+  inliers = problem->FinalInliers(model, ransac.threshold_, opengv_threshold);
   result.cam2_from_cam1 = NormalizeTranslation(FromOpenGv(model));
-  // OpenGV's residual triangulates each point and compares unit rays with their signs, so
-  // a point behind either camera has residual ~2: inliers already satisfy cheirality.
   for (int i : inliers) result.inliers[i] = true;
   result.num_inliers = static_cast<int>(inliers.size());
   if (result.num_inliers < options.min_inliers) {

@@ -21,7 +21,7 @@ struct RelativePoseOptions {
   /// threshold_px bounds the angular reprojection error in each of the two views.
   RansacOptions ransac;
   /// Levenberg-Marquardt refinement of R, t on the RANSAC inliers (Sampson angular
-  /// error, Huber loss at half the threshold), then inliers re-selected.
+  /// error, Cauchy loss at half the threshold), then inliers re-selected.
   bool refine = true;
   /// Fewer inliers than this is a failure.
   int min_inliers = 15;
@@ -46,6 +46,13 @@ struct RelativePoseResult {
 RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bearings1,
                                         const std::vector<Eigen::Vector3d>& bearings2,
                                         const RelativePoseOptions& options);
+
+/// Robust refinement used by EstimateRelativePose, exposed for other motion sources
+/// (homography decomposition): Levenberg-Marquardt on SO(3) x S^2 over the Sampson
+/// angular errors of `indices`, Cauchy loss with scale loss_scale_rad. |t| = 1 on return.
+SE3 RefineRelativePose(const SE3& cam2_from_cam1, const std::vector<Eigen::Vector3d>& bearings1,
+                       const std::vector<Eigen::Vector3d>& bearings2, const std::vector<int>& indices,
+                       double loss_scale_rad);
 
 /// Essential matrix of a motion: x2^T E x1 = 0 for bearings x1 (cam1), x2 (cam2).
 Eigen::Matrix3d EssentialFromPose(const SE3& cam2_from_cam1);

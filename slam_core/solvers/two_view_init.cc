@@ -19,10 +19,14 @@ bool Normalized(const Eigen::Vector3d& b, Eigen::Vector3d* x) {
   return true;
 }
 
-// ORB-SLAM margin: a residual inside the chi-square gate adds (score_gate - chi2).
+// A residual inside its chi-square gate adds (gate - chi2). ORB-SLAM scores both models
+// against the 2-DoF gate 5.991, which hands the 1-DoF epipolar residual ~1.5 extra per
+// point: with noise equal to sigma a plane then scored R_H = 0.31-0.42 (30 seeds),
+// straddling the 0.40 decision. Against its own gate a plane scores 0.44-0.57 and general
+// scenes stay below 0.19.
 double Margin(double err_px, double sigma_px, double gate) {
   const double chi2 = (err_px * err_px) / (sigma_px * sigma_px);
-  return chi2 < gate ? kChi2TwoDof - chi2 : 0.0;
+  return chi2 < gate ? gate - chi2 : 0.0;
 }
 
 double EpipolarDistance(const Eigen::Vector3d& line, const Eigen::Vector3d& x) {
@@ -187,6 +191,18 @@ TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings
       if (n > 1e-9) motions.emplace_back(m.cam2_from_cam1.rotation(), m.cam2_from_cam1.translation() / n);
     }
     result = Reconstruct(motions, homography.inliers, homography.num_inliers, bearings1, bearings2, options);
+    if (result.num_triangulated > 0 && result.status != SolverStatus::kAmbiguous) {
+      // The DLT homography is algebraic and its decomposition amplifies noise; refining
+      // the chosen motion on its triangulated points (Sampson error, as for E) cut the
+      // worst translation-direction error over 30 seeds at 1 px noise from 7.4 to 5.8 deg.
+      std::vector<int> good;
+      for (size_t i = 0; i < result.points_cam1.size(); ++i) {
+        if (result.points_cam1[i]) good.push_back(static_cast<int>(i));
+      }
+      const double scale = 0.5 * std::sqrt(kChi2TwoDof) * options.sigma_px / options.focal_px;
+      const SE3 refined = RefineRelativePose(result.cam2_from_cam1, bearings1, bearings2, good, scale);
+      result = Reconstruct({refined}, homography.inliers, homography.num_inliers, bearings1, bearings2, options);
+    }
     result.model = TwoViewModel::kHomography;
   } else {
     result = Reconstruct({essential.cam2_from_cam1}, essential.inliers, essential.num_inliers, bearings1,

@@ -29,7 +29,9 @@ struct TwoViewInitOptions {
   double confidence = 0.999;
   std::uint64_t seed = 42;
   RelativePoseAlgorithm essential_algorithm = RelativePoseAlgorithm::kStewenius5pt;
-  /// The homography is chosen when R_H exceeds this (ORB-SLAM 2: 0.40).
+  /// The homography is chosen when R_H exceeds this (ORB-SLAM 2's value). Measured over
+  /// 30 seeds, 30 % outliers: planes 0.44-0.57 at noise = sigma, 0.58-0.67 at noise =
+  /// sigma / 2; general 3D scenes 0.07-0.18.
   double min_homography_ratio = 0.40;
   /// Median parallax of the triangulated points must reach this (degrees).
   double min_parallax_deg = 1.0;
@@ -65,8 +67,10 @@ TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings
                                     const std::vector<Eigen::Vector3d>& bearings2,
                                     const TwoViewInitOptions& options);
 
-/// ORB-SLAM model scores over all correspondences (sigma-normalized chi-square margins,
-/// both directions). Exposed for tests and diagnostics.
+/// ORB-SLAM-style model scores over all correspondences: each residual (both directions)
+/// inside its chi-square gate adds gate - chi2, with chi2 = (error / sigma)^2. Gates:
+/// 5.991 for homography transfer errors, 3.841 for epipolar distances (ORB-SLAM uses
+/// 5.991 for both margins, which biases against the homography). Exposed for diagnostics.
 double ScoreHomographyModel(const Eigen::Matrix3d& cam2_H_cam1, const std::vector<Eigen::Vector3d>& bearings1,
                             const std::vector<Eigen::Vector3d>& bearings2, double focal_px, double sigma_px);
 double ScoreEssentialModel(const SE3& cam2_from_cam1, const std::vector<Eigen::Vector3d>& bearings1,

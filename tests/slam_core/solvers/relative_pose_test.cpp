@@ -38,6 +38,7 @@ RelativePoseOptions Options(const SceneGenerator& gen, RelativePoseAlgorithm alg
 class RelativePoseAlgorithms : public ::testing::TestWithParam<RelativePoseAlgorithm> {};
 
 // 500 correspondences, 0.7 px noise, 40 % outliers, 0.6 m baseline at 3-9 m depth.
+// Worst over 30 seeds (5pt): rotation 0.16 deg, translation direction 1.2 deg.
 TEST_P(RelativePoseAlgorithms, RecoversKnownPoseWithNoiseAndOutliers) {
   SceneGenerator gen(11);
   const SE3 world_from_cam2 = test::MakePose(3, -8, 2, Eigen::Vector3d(0.6, 0.1, 0.15));
@@ -67,7 +68,9 @@ TEST(RelativePose, WorksWithFisheyeBearings) {
   ASSERT_TRUE(r.ok()) << r.message;
   const SE3 gt = world_from_cam2.inverse();
   EXPECT_LT(test::RotationErrorDeg(r.cam2_from_cam1.rotation(), gt.rotation()), 0.5);
-  EXPECT_LT(test::DirectionErrorDeg(r.cam2_from_cam1.translation(), gt.translation()), 2.0);
+  // f = 191 px: 0.5 px here is ~1.2 px at the EuRoC focal length, hence 3 deg
+  // (worst over 30 seeds: 2.8 deg, mean 1.1 deg).
+  EXPECT_LT(test::DirectionErrorDeg(r.cam2_from_cam1.translation(), gt.translation()), 3.0);
 }
 
 TEST(RelativePose, SameSeedGivesSameResult) {
