@@ -22,13 +22,21 @@ Problem::algorithm_t ToOpenGv(AbsolutePoseAlgorithm a) {
   return Problem::KNEIP;
 }
 
-// Inliers under `model` (world_from_cam as [R | t]); the residual 1 - cos compares signed
-// rays, so points behind the camera are never inliers.
-std::vector<int> SelectInliers(Problem* problem, const opengv::transformation_t& model,
-                               double threshold) {
-  std::vector<int> inliers;
-  problem->selectWithinDistance(model, threshold, inliers);
-  return inliers;
+// OpenGV's nonlinear refinement on the inliers, then re-selection (its residual 1 - cos
+// compares signed rays, so points behind the camera never come back). The refined model
+// is kept unless it loses more than 10 % of the inliers (a bad local minimum).
+void RefineAndReselect(Problem* problem, double threshold, opengv::transformation_t* model,
+                       std::vector<int>* inliers) {
+  for (int round = 0; round < 2; ++round) {
+    opengv::transformation_t refined;
+    problem->optimizeModelCoefficients(*inliers, *model, refined);
+    if (!refined.allFinite()) break;
+    std::vector<int> refined_inliers;
+    problem->selectWithinDistance(refined, threshold, refined_inliers);
+    if (refined_inliers.size() < 0.9 * inliers->size()) break;
+    *model = refined;
+    inliers->swap(refined_inliers);
+  }
 }
 
 }  // namespace
@@ -78,17 +86,7 @@ AbsolutePoseResult EstimateAbsolutePose(const std::vector<Eigen::Vector3d>& bear
   opengv::transformation_t model = ransac.model_coefficients_;
   std::vector<int> inliers = ransac.inliers_;
   if (options.refine && static_cast<int>(inliers.size()) >= 6) {
-    for (int round = 0; round < 2; ++round) {
-      opengv::transformation_t refined;
-      problem->optimizeModelCoefficients(inliers, model, refined);
-      if (!refined.allFinite()) break;
-      std::vector<int> refined_inliers = SelectInliers(problem.get(), refined, ransac.threshold_);
-      // The refined model is kept even if a few borderline points leave the set; only a
-      // collapse (a bad local minimum) is refused.
-      if (refined_inliers.size() < 0.9 * inliers.size()) break;
-      model = refined;
-      inliers.swap(refined_inliers);
-    }
+    RefineAndReselect(problem.get(), ransac.threshold_, &model, &inliers);
   }
   result.world_from_cam = SE3(Eigen::Matrix3d(model.leftCols<3>()), Eigen::Vector3d(model.col(3)));
   for (int i : inliers) result.inliers[i] = true;

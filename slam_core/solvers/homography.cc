@@ -81,6 +81,54 @@ std::vector<int> MaskToIndices(const std::vector<bool>& mask) {
   return idx;
 }
 
+struct PlaneData {
+  std::vector<Eigen::Vector2d> x1, x2;  // normalized image planes
+  std::vector<bool> valid;              // both bearings point forward
+  std::vector<int> valid_idx;
+};
+
+PlaneData ToNormalizedPlanes(const std::vector<Eigen::Vector3d>& b1, const std::vector<Eigen::Vector3d>& b2) {
+  PlaneData d;
+  const size_t n = b1.size();
+  d.x1.resize(n);
+  d.x2.resize(n);
+  d.valid.assign(n, false);
+  for (size_t i = 0; i < n; ++i) {
+    if (b1[i].z() <= 1e-6 || b2[i].z() <= 1e-6) continue;  // no normalized plane
+    d.x1[i] = b1[i].head<2>() / b1[i].z();
+    d.x2[i] = b2[i].head<2>() / b2[i].z();
+    d.valid[i] = true;
+    d.valid_idx.push_back(static_cast<int>(i));
+  }
+  return d;
+}
+
+// Seeded adaptive RANSAC over the forward-facing correspondences; returns the best
+// inlier count (-1 if every sample was degenerate).
+int RunRansac(const PlaneData& d, double threshold, const RansacOptions& ro, Eigen::Matrix3d* best_h,
+              std::vector<bool>* best_mask, int* iterations) {
+  const int nv = static_cast<int>(d.valid_idx.size());
+  std::mt19937_64 rng(ro.seed);
+  std::vector<int> scratch, sample(kSampleSize);
+  std::vector<bool> mask;
+  int best_count = -1, needed = ro.max_iterations, it = 0;
+  for (; it < needed; ++it) {
+    internal::DrawSample(nv, kSampleSize, &rng, &scratch, &sample);
+    for (int& s : sample) s = d.valid_idx[s];
+    Eigen::Matrix3d H;
+    if (!SolveDlt(d.x1, d.x2, sample, &H)) continue;
+    const int count = ScoreHomography(H, d.x1, d.x2, d.valid, threshold, &mask);
+    if (count > best_count) {
+      best_count = count;
+      *best_h = H;
+      *best_mask = mask;
+      needed = internal::AdaptiveIterations(double(count) / nv, kSampleSize, ro.confidence, ro.max_iterations);
+    }
+  }
+  *iterations = it;
+  return best_count;
+}
+
 }  // namespace
 
 std::string HomographyOptions::Validate() const {
@@ -108,17 +156,10 @@ HomographyResult EstimateHomography(const std::vector<Eigen::Vector3d>& bearings
   }
   const int n = static_cast<int>(bearings1.size());
   result.inliers.assign(n, false);
-  std::vector<Eigen::Vector2d> x1(n), x2(n);
-  std::vector<bool> valid(n, false);
-  std::vector<int> valid_idx;
-  for (int i = 0; i < n; ++i) {
-    if (bearings1[i].z() <= 1e-6 || bearings2[i].z() <= 1e-6) continue;  // no normalized plane
-    x1[i] = bearings1[i].head<2>() / bearings1[i].z();
-    x2[i] = bearings2[i].head<2>() / bearings2[i].z();
-    valid[i] = true;
-    valid_idx.push_back(i);
-  }
-  const int nv = static_cast<int>(valid_idx.size());
+  const PlaneData d = ToNormalizedPlanes(bearings1, bearings2);
+  const std::vector<Eigen::Vector2d>&x1 = d.x1, &x2 = d.x2;
+  const std::vector<bool>& valid = d.valid;
+  const int nv = static_cast<int>(d.valid_idx.size());
   if (nv < std::max(kSampleSize, options.min_inliers)) {
     result.status = SolverStatus::kTooFewPoints;
     result.message = std::to_string(nv) + " forward-facing correspondences are too few";
@@ -126,24 +167,9 @@ HomographyResult EstimateHomography(const std::vector<Eigen::Vector3d>& bearings
   }
   // Transfer error on the normalized plane: pixels / focal.
   const double threshold = options.ransac.threshold_px / options.ransac.focal_px;
-  std::mt19937_64 rng(options.ransac.seed);
-  std::vector<int> scratch, sample(kSampleSize);
+  int it = 0;
+  int best_count = RunRansac(d, threshold, options.ransac, &result.cam2_H_cam1, &result.inliers, &it);
   std::vector<bool> mask;
-  int best_count = -1, needed = options.ransac.max_iterations, it = 0;
-  for (; it < needed; ++it) {
-    internal::DrawSample(nv, kSampleSize, &rng, &scratch, &sample);
-    for (int& s : sample) s = valid_idx[s];
-    Eigen::Matrix3d H;
-    if (!SolveDlt(x1, x2, sample, &H)) continue;
-    const int count = ScoreHomography(H, x1, x2, valid, threshold, &mask);
-    if (count > best_count) {
-      best_count = count;
-      result.cam2_H_cam1 = H;
-      result.inliers = mask;
-      needed = internal::AdaptiveIterations(double(count) / nv, kSampleSize, options.ransac.confidence,
-                                            options.ransac.max_iterations);
-    }
-  }
   result.iterations = it;
   if (best_count < kSampleSize) {
     result.status = SolverStatus::kRansacFailed;

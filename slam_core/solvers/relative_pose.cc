@@ -163,6 +163,23 @@ class SampsonScoredProblem : public Problem {
   const opengv::bearingVectors_t& f2_;
 };
 
+// Refine, then re-select inliers under the refined model; a second round helps after a
+// noisy minimal sample. The refined model is kept even if a few borderline points leave
+// the set; only a collapse (a bad local minimum) is refused.
+void RefineAndReselect(SampsonScoredProblem& problem, const opengv::bearingVectors_t& f1,
+                       const opengv::bearingVectors_t& f2, double loss_scale, double threshold,
+                       opengv::transformation_t* model, std::vector<int>* inliers) {
+  for (int round = 0; round < 2; ++round) {
+    const SE3 refined = RefineLm(FromOpenGv(*model), f1, f2, *inliers, loss_scale);
+    const opengv::transformation_t refined_model = ToOpenGvModel(refined);
+    std::vector<int> refined_inliers;
+    problem.selectWithinDistance(refined_model, threshold, refined_inliers);
+    if (refined_inliers.size() < 0.9 * inliers->size()) break;
+    *model = refined_model;
+    inliers->swap(refined_inliers);
+  }
+}
+
 }  // namespace
 
 std::string RelativePoseOptions::Validate() const {
@@ -201,10 +218,10 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
   const opengv::bearingVectors_t f2 = internal::ToOpenGv(bearings2);
   opengv::relative_pose::CentralRelativeAdapter adapter(f1, f2);
   auto problem = std::make_shared<SampsonScoredProblem>(adapter, ToOpenGv(options.algorithm), f1, f2);
-  if (n < std::max(problem->getSampleSize(), options.min_inliers)) {
+  const int needed = std::max(problem->getSampleSize(), options.min_inliers);
+  if (n < needed) {
     result.status = SolverStatus::kTooFewPoints;
-    result.message = "need at least " + std::to_string(std::max(problem->getSampleSize(), options.min_inliers)) +
-                     " correspondences, got " + std::to_string(n);
+    result.message = "need at least " + std::to_string(needed) + " correspondences, got " + std::to_string(n);
     return result;
   }
   internal::SeedOpenGvProblem(problem.get(), options.ransac.seed);
@@ -227,20 +244,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
   opengv::transformation_t model = ransac.model_coefficients_;
   std::vector<int> inliers = ransac.inliers_;
   if (options.refine && static_cast<int>(inliers.size()) >= options.min_inliers) {
-    // Refine, then re-select inliers under the refined model with OpenGV's residual
-    // (which also enforces cheirality); one more round helps after a noisy minimal sample.
-    const double loss_scale = 0.5 * theta;
-    for (int round = 0; round < 2; ++round) {
-      const SE3 refined = RefineLm(FromOpenGv(model), f1, f2, inliers, loss_scale);
-      const opengv::transformation_t refined_model = ToOpenGvModel(refined);
-      std::vector<int> refined_inliers;
-      problem->selectWithinDistance(refined_model, ransac.threshold_, refined_inliers);
-      // The refined model is kept even if a few borderline points leave the set; only a
-      // collapse (a bad local minimum) is refused.
-      if (refined_inliers.size() < 0.9 * inliers.size()) break;
-      model = refined_model;
-      inliers.swap(refined_inliers);
-    }
+    RefineAndReselect(*problem, f1, f2, 0.5 * theta, ransac.threshold_, &model, &inliers);
   }
   inliers = problem->FinalInliers(model, ransac.threshold_, opengv_threshold);
   result.cam2_from_cam1 = NormalizeTranslation(FromOpenGv(model));

@@ -47,6 +47,33 @@ std::vector<int> MaskToIndices(const std::vector<bool>& mask) {
   return idx;
 }
 
+// Seeded adaptive RANSAC over 3-point samples; returns the best inlier count (-1 if
+// every sample was degenerate).
+int RunRansac(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::Vector3d>& pb,
+              const Sim3Options& options, double max_angle, Sim3* best, std::vector<bool>* best_mask,
+              int* iterations) {
+  const int n = static_cast<int>(pa.size());
+  std::mt19937_64 rng(options.ransac.seed);
+  std::vector<int> scratch, sample;
+  std::vector<bool> mask;
+  int best_count = -1, needed = options.ransac.max_iterations, it = 0;
+  for (; it < needed; ++it) {
+    internal::DrawSample(n, kSampleSize, &rng, &scratch, &sample);
+    const std::optional<Sim3> S = AlignUmeyama(pa, pb, options.fix_scale, sample);
+    if (!S) continue;
+    const int count = ScoreModel(pa, pb, *S, options, max_angle, &mask);
+    if (count > best_count) {
+      best_count = count;
+      *best = *S;
+      *best_mask = mask;
+      needed = internal::AdaptiveIterations(double(count) / n, kSampleSize, options.ransac.confidence,
+                                            options.ransac.max_iterations);
+    }
+  }
+  *iterations = it;
+  return best_count;
+}
+
 }  // namespace
 
 std::optional<Sim3> AlignUmeyama(const std::vector<Eigen::Vector3d>& points_a,
@@ -102,24 +129,10 @@ Sim3Result EstimateSim3(const std::vector<Eigen::Vector3d>& points_a,
     return result;
   }
   const double max_angle = options.metric == Sim3InlierMetric::kAngular ? options.ransac.ThresholdAngleRad() : 0.0;
-  std::mt19937_64 rng(options.ransac.seed);
-  std::vector<int> scratch, sample;
-  std::vector<bool> mask;
-  int best_count = -1, needed = options.ransac.max_iterations, it = 0;
   Sim3 best;
-  for (; it < needed; ++it) {
-    internal::DrawSample(n, kSampleSize, &rng, &scratch, &sample);
-    const std::optional<Sim3> S = AlignUmeyama(points_a, points_b, options.fix_scale, sample);
-    if (!S) continue;
-    const int count = ScoreModel(points_a, points_b, *S, options, max_angle, &mask);
-    if (count > best_count) {
-      best_count = count;
-      best = *S;
-      result.inliers = mask;
-      needed = internal::AdaptiveIterations(double(count) / n, kSampleSize, options.ransac.confidence,
-                                            options.ransac.max_iterations);
-    }
-  }
+  int it = 0;
+  int best_count = RunRansac(points_a, points_b, options, max_angle, &best, &result.inliers, &it);
+  std::vector<bool> mask;
   result.iterations = it;
   if (best_count < kSampleSize) {
     result.status = best_count < 0 ? SolverStatus::kDegenerate : SolverStatus::kTooFewInliers;
