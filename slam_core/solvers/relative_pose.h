@@ -1,7 +1,10 @@
 // Two-view relative pose (essential matrix) from bearing correspondences: 5-point
-// (Stewenius or Nister) or 8-point minimal solvers inside OpenGV's RANSAC, the four-fold
-// decomposition disambiguated by cheirality, then nonlinear refinement on the inliers.
-// Translation is known only up to scale and is returned with unit norm.
+// (Stewenius or Nister) or 8-point minimal solvers inside OpenGV's RANSAC (hypotheses
+// scored by Sampson angle; OpenGV picks among the four decompositions by cheirality of the
+// sample), robust nonlinear refinement, final inliers also pass OpenGV's triangulating
+// residual, so every inlier lies in front of both cameras.
+// Translation is known only up to scale and is returned with unit norm; with (near) zero
+// baseline it is meaningless: InitializeTwoView checks parallax, this function does not.
 // Usage: options.ransac.focal_px = fx; auto r = EstimateRelativePose(b1, b2, options);
 #pragma once
 
