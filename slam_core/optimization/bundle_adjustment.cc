@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 
 #include <ceres/loss_function.h>
@@ -43,6 +44,8 @@ struct BundleVariables {
   std::vector<Se3Block> cam_from_world;
   std::vector<Eigen::Vector3d> points_w;
   std::vector<bool> pose_fixed;
+  int scale_gauge_pose = -1;  ///< pose whose translation component scale_gauge_axis is held
+  int scale_gauge_axis = 0;
 };
 
 BundleVariables CopyVariables(const BundleProblem& problem) {
@@ -76,11 +79,43 @@ void FixGaugeIfNeeded(const BundleProblem& problem, const std::vector<bool>& act
   if (first_observed >= 0) v->pose_fixed[first_observed] = true;
 }
 
+// Monocular scale gauge: with exactly one observed pose fixed, the map can still scale about
+// that camera. Holding one translation component of the pose that moves most under such a
+// scaling removes exactly that freedom (nothing else is constrained).
+void FixScaleGauge(const BundleProblem& problem, const std::vector<bool>& active, BundleVariables* v) {
+  std::vector<bool> observed(problem.poses.size(), false);
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    if (active[i]) observed[problem.observations[i].pose_index] = true;
+  }
+  int fixed = -1, num_fixed = 0;
+  for (size_t p = 0; p < observed.size(); ++p) {
+    if (!observed[p] || !v->pose_fixed[p]) continue;
+    fixed = static_cast<int>(p);
+    ++num_fixed;
+  }
+  if (num_fixed != 1) return;
+  const Eigen::Vector3d fixed_centre = problem.poses[fixed].world_from_cam.translation();
+  double best = 0.0;
+  for (size_t p = 0; p < observed.size(); ++p) {
+    if (!observed[p] || v->pose_fixed[p]) continue;
+    // d(t_cam_from_world)/d(scale) = -R_cw (c - c_fixed)
+    const Eigen::Vector3d d = UnpackSe3(v->cam_from_world[p]).rotation() *
+                              (problem.poses[p].world_from_cam.translation() - fixed_centre);
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(d[k]) <= best) continue;
+      best = std::abs(d[k]);
+      v->scale_gauge_pose = static_cast<int>(p);
+      v->scale_gauge_axis = k;
+    }
+  }
+}
+
 // One Levenberg-Marquardt pass over the active observations.
 ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::vector<bool>& active,
                                      bool robust, int max_iterations,
                                      const BundleAdjusterOptions& options, BundleVariables* v) {
   std::unique_ptr<ceres::Manifold> manifold(NewSe3Manifold());
+  std::unique_ptr<ceres::Manifold> gauge_manifold(NewSe3ManifoldWithFixedTranslationAxis(v->scale_gauge_axis));
   std::unique_ptr<ceres::LossFunction> huber(new ceres::HuberLoss(options.huber_delta));
   ceres::Problem cp(ProblemOptionsNotOwning());
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
@@ -97,7 +132,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
                         pose, point);
     if (!pose_added[o.pose_index]) {
       pose_added[o.pose_index] = true;
-      cp.SetManifold(pose, manifold.get());
+      cp.SetManifold(pose, o.pose_index == v->scale_gauge_pose ? gauge_manifold.get() : manifold.get());
       if (v->pose_fixed[o.pose_index]) cp.SetParameterBlockConstant(pose);
       num_free_poses += v->pose_fixed[o.pose_index] ? 0 : 1;
       ordering->AddElementToGroup(pose, 1);
@@ -182,6 +217,7 @@ OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOpt
     return out;
   }
   if (options.fix_first_pose_if_none_fixed) FixGaugeIfNeeded(*problem, active, &v);
+  if (options.fix_scale_if_one_pose_fixed) FixScaleGauge(*problem, active, &v);
 
   bool ok = true;
   bool first_pass = true;

@@ -24,6 +24,12 @@ inline ceres::Manifold* NewSe3Manifold() {
   return new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>();
 }
 
+/// SE(3) block whose translation component `axis` (0..2) is held constant (scale gauge).
+inline ceres::Manifold* NewSe3ManifoldWithFixedTranslationAxis(int axis) {
+  return new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::SubsetManifold>(
+      ceres::EigenQuaternionManifold(), ceres::SubsetManifold(3, {axis}));
+}
+
 /// New manifold for an 8-double Sim(3) block; the ceres::Problem takes ownership.
 inline ceres::Manifold* NewSim3Manifold() {
   return new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<4>>();
