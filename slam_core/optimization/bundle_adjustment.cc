@@ -81,11 +81,14 @@ void FixGaugeIfNeeded(const BundleProblem& problem, const std::vector<bool>& act
 
 // Monocular scale gauge: with exactly one observed pose fixed, the map can still scale about
 // that camera. Holding one translation component of the pose that moves most under such a
-// scaling removes exactly that freedom (nothing else is constrained).
+// scaling removes exactly that freedom (nothing else is constrained). A fixed point already
+// fixes the scale, so then nothing is done.
 void FixScaleGauge(const BundleProblem& problem, const std::vector<bool>& active, BundleVariables* v) {
   std::vector<bool> observed(problem.poses.size(), false);
   for (size_t i = 0; i < problem.observations.size(); ++i) {
-    if (active[i]) observed[problem.observations[i].pose_index] = true;
+    if (!active[i]) continue;
+    if (problem.points[problem.observations[i].point_index].fixed) return;
+    observed[problem.observations[i].pose_index] = true;
   }
   int fixed = -1, num_fixed = 0;
   for (size_t p = 0; p < observed.size(); ++p) {

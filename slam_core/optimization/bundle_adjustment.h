@@ -62,7 +62,7 @@ struct BundleAdjusterOptions {
   BaLinearSolver linear_solver = BaLinearSolver::kAuto;
   /// Gauge: if no pose in the problem is fixed, fix the first observed pose.
   bool fix_first_pose_if_none_fixed = true;
-  /// Monocular scale gauge: if exactly one observed pose is fixed, hold one translation
+  /// Monocular scale gauge: if exactly one observed pose and no point is fixed, hold one translation
   /// component of the pose farthest from it (the one that changes most under scaling).
   /// Without it the free scale direction makes near-Gauss-Newton steps wander.
   bool fix_scale_if_one_pose_fixed = true;
