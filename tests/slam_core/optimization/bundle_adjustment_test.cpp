@@ -244,6 +244,43 @@ TEST(GlobalBundleAdjustment, ConvergesToGroundTruth) {
   EXPECT_GT(s.num_inliers, 0.9 * p.observations.size());
 }
 
+// Collaborative SLAM: keyframes of different agents carry different camera models.
+TEST(GlobalBundleAdjustment, MixedPinholeAndFisheyeKeyframes) {
+  SceneOptions so;
+  so.num_keyframes = 24;
+  so.num_points = 3000;
+  so.pixel_noise_px = 0.0;
+  so.seed = 17;
+  testing::Scene scene = MakeScene(so);
+  BundleProblem& p = scene.problem;
+  p.cameras.push_back(MakeFisheye());
+  std::mt19937 rng(19);
+  std::normal_distribution<double> n(0.0, 0.5);
+  std::vector<Observation> kept;
+  for (PoseBlock& pose : p.poses) pose.camera_index = static_cast<int>(pose.id % 2);
+  for (Observation o : p.observations) {
+    const PoseBlock& pose = p.poses[o.pose_index];
+    Eigen::Vector2d uv;
+    const CameraModel& cam = *p.cameras[pose.camera_index];
+    if (!cam.Project(pose.world_from_cam.inverse() * scene.gt_points_w[o.point_index], &uv) || !cam.InImage(uv)) continue;
+    o.uv_px = uv + Eigen::Vector2d(n(rng), n(rng));
+    kept.push_back(o);
+  }
+  p.observations = kept;
+  p.poses[0].fixed = true;
+  testing::Perturb(&p, 1.0, 0.05, 0.1, &rng);
+  BundleAdjusterOptions options = GlobalBaDefaults();
+  options.robust_iterations = 30;
+  const OptimizationSummary s = GlobalBundleAdjustment(&p, options);
+  ASSERT_TRUE(s.usable) << s.message;
+  std::vector<SE3> after;
+  for (const PoseBlock& pose : p.poses) after.push_back(pose.world_from_cam);
+  const testing::PoseErrors e = testing::AlignedPoseErrors(after, scene.gt_world_from_cam);
+  EXPECT_LT(e.max_position_m, 0.01);
+  EXPECT_LT(e.max_rotation_deg, 0.1);
+  EXPECT_LT(ReprojectionRmsePx(p), 0.8);  // 0.5 px noise per axis -> ~0.7 px RMSE
+}
+
 TEST(BundleAdjust, RejectsInvalidProblem) {
   BundleProblem p;
   p.cameras.push_back(testing::MakeTestCamera());
