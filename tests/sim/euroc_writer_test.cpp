@@ -117,6 +117,10 @@ TEST(SimFrameSource, DeliversTheRenderedFramesWithGroundTruth) {
   EXPECT_FALSE(source.Next());
   EXPECT_EQ(source.error(), "");
   EXPECT_EQ(SimFrameSource(sim, 0).size(), sim->NumFrames(0));
+  SimFrameSource bad(sim, 7);
+  EXPECT_EQ(bad.size(), 0);
+  EXPECT_FALSE(bad.Next());
+  EXPECT_NE(bad.error().find("no agent 7"), std::string::npos);
 }
 
 }  // namespace

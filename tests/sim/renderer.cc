@@ -157,13 +157,17 @@ Renderer::FrameSetup Renderer::Setup(const SE3& world_from_cam, bool with_tiles)
     }
   }
   if (!with_tiles) return f;
-  // Tile culling: keep a surface for a tile if its bounding sphere meets the tile's cone.
+  // Tile culling: keep a surface for a tile if some ray of the tile's cone approaches its
+  // front side (n . d < 0 for some d, i.e. n . axis < sin(half angle)) and its bounding
+  // sphere meets the cone.
   f.tile_begin.assign(tile_axis_.size() + 1, 0);
   for (size_t k = 0; k < tile_axis_.size(); ++k) {
     f.tile_begin[k] = static_cast<int>(f.cand.size());
     if (tile_half_angle_[k] < 0.0) continue;
     const Eigen::Vector3d axis = f.R * tile_axis_[k];
+    const double sin_half = std::sin(tile_half_angle_[k]) + 1e-6;
     for (size_t j = 0; j < f.visible.size(); ++j) {
+      if (f.visible[j].n.dot(axis) >= sin_half) continue;
       const double dist = sphere_c[j].norm();
       bool keep = dist <= sphere_r[j];
       if (!keep) {
