@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "slam_core/io/dataset.h"
 #include "tests/sim/euroc_writer.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/sim_test_util.h"
@@ -91,6 +92,42 @@ TEST_F(EurocWriterTest, WritesImagesGroundTruthAndSensorYaml) {
   ASSERT_EQ(t_bs.size(), 16u);
   for (int i = 0; i < 16; ++i) EXPECT_EQ(t_bs[i], i % 5 == 0 ? 1.0 : 0.0);
   EXPECT_EQ(sensor["rate_hz"].as<double>(), 20.0);
+}
+
+// The project's EuRoC reader (ccm_io) reads the folders back: same images, stamps,
+// camera poses and calibration, for both camera models.
+TEST_F(EurocWriterTest, RoundTripsThroughTheEurocReader) {
+  for (const bool fisheye : {false, true}) {
+    Scenario scenario = testing::BuiltinOrDie("hall3");
+    if (fisheye) scenario.camera = FisheyeCamera();
+    std::string error;
+    const auto sim = Simulation::Create(scenario, &error, SharedSim("hall3")->world());
+    ASSERT_TRUE(sim) << error;
+    const fs::path out = dir_ / (fisheye ? "fisheye" : "pinhole");
+    ASSERT_EQ(WriteEurocAgent(*sim, 0, out.string(), 4), "");
+    IoStatus status;
+    const auto source = OpenDataset((out / "agent0").string(), DatasetFormat::kAuto, &status);
+    ASSERT_TRUE(source) << status.message();
+    const CameraIntrinsics& read = source->intrinsics();
+    EXPECT_EQ(read.type, scenario.camera.type);
+    EXPECT_EQ(read.width_px, scenario.camera.width_px);
+    EXPECT_DOUBLE_EQ(read.fx, scenario.camera.fx);
+    EXPECT_DOUBLE_EQ(read.cy, scenario.camera.cy);
+    EXPECT_EQ(read.distortion, scenario.camera.distortion);
+    EXPECT_EQ(source->size(), 4);
+    for (std::int64_t i = 0; i < 4; ++i) {
+      const auto frame = source->Next();
+      ASSERT_TRUE(frame) << source->error();
+      EXPECT_EQ(frame->stamp_ns, sim->StampNs(0, i));
+      EXPECT_EQ(cv::norm(frame->image, sim->RenderFrame(0, i), cv::NORM_L1), 0.0);
+      ASSERT_TRUE(frame->world_from_cam_gt);
+      const SE3 truth = sim->WorldFromCam(0, i);
+      EXPECT_LT((frame->world_from_cam_gt->translation() - truth.translation()).norm(), 1e-8);
+      EXPECT_LT(frame->world_from_cam_gt->rotation().angularDistance(truth.rotation()), 1e-9);
+    }
+    EXPECT_FALSE(source->Next());
+    EXPECT_EQ(source->error(), "");
+  }
 }
 
 TEST(SensorYaml, FisheyeIsPinholeWithEquidistantDistortion) {
