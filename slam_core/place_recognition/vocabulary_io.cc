@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <random>
 
 namespace ccm {
 
@@ -113,7 +114,8 @@ std::optional<Vocabulary> DeserializeVocabulary(const std::uint8_t* data, std::s
 
 std::string SaveVocabularyFile(const Vocabulary& vocabulary, const std::string& path) {
   const std::vector<std::uint8_t> bytes = SerializeVocabulary(vocabulary);
-  const std::string tmp = path + ".tmp";
+  // A unique temporary name: concurrent writers of the same path never share a file.
+  const std::string tmp = path + ".tmp" + std::to_string(std::random_device{}());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) return "cannot open " + tmp + " for writing";

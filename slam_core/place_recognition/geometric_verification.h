@@ -1,0 +1,100 @@
+// Geometric verification of a place candidate (loop or map overlap), CCM-SLAM/ORB-SLAM style:
+// BoW-guided descriptor matches (features under the same vocabulary node) between keypoints
+// that have 3D points -> Sim(3) RANSAC on the 3D-3D pairs (angular inlier test, so it works
+// for any camera model) -> guided search by projection in both directions -> RANSAC again on
+// the enlarged set (refinement) -> accept on match/inlier thresholds.
+// Inputs are value snapshots (VerificationView), so agent maps, server maps and different
+// cameras all work. Stateless function; safe from any thread.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "slam_core/feature/orb_types.h"
+#include "slam_core/geometry/camera.h"
+#include "slam_core/geometry/sim3.h"
+#include "slam_core/matching/descriptor_matcher.h"
+#include "slam_core/matching/projection_matcher.h"
+#include "slam_core/place_recognition/bow_vector.h"
+#include "slam_core/solvers/similarity.h"
+
+namespace ccm {
+
+/// One keyframe as seen by verification.
+struct VerificationView {
+  std::shared_ptr<const CameraModel> camera;
+  FrameFeatures features;            ///< keypoints (distorted pixels) + descriptors
+  ScalePyramid pyramid = ScalePyramid::Make(8, 1.2);
+  /// Per keypoint: its map point in THIS keyframe's camera frame, or NaN if it has none.
+  /// Each view may be in its own map's scale.
+  std::vector<Eigen::Vector3d> points_cam;
+  /// Direct index of the keypoints (Vocabulary::Transform with the same levels_up for both).
+  FeatureVector feature_vector;
+
+  bool HasPoint(int i) const { return points_cam[i].allFinite(); }
+  /// Empty if consistent, else the problem (sizes, missing camera).
+  std::string Validate() const;
+};
+
+struct VerificationOptions {
+  DescriptorMatchOptions bow_match = [] {
+    DescriptorMatchOptions o;
+    o.max_distance = kOrbThresholdLow;  // 50, ORB-SLAM TH_LOW
+    o.ratio = 0.75;
+    o.check_rotation = true;
+    return o;
+  }();
+  solvers::Sim3Options sim3 = [] {
+    solvers::Sim3Options o;
+    o.ransac.threshold_px = 3.0;   // ~ sqrt(chi2(2, 0.99)=9.21) px at level 0
+    o.ransac.max_iterations = 300;
+    o.min_inliers = 20;
+    return o;
+  }();
+  ProjectionMatchOptions guided = [] {
+    ProjectionMatchOptions o;
+    o.radius_px = 7.5;             // ORB-SLAM SearchBySim3
+    o.max_distance = kOrbThresholdHigh;
+    o.ratio = 1.0;                 // no ratio test, mutual consistency instead
+    o.levels_below = 1;
+    o.levels_above = 1;
+    return o;
+  }();
+  int min_bow_matches = 20;        ///< CCM-SLAM: >= 20 BoW matches
+  int min_inliers = 20;            ///< CCM-SLAM: >= 20 Sim(3) inliers
+  int min_total_matches = 40;      ///< CCM-SLAM: >= 40 matches after guided search
+  int refine_rounds = 1;           ///< RANSAC + guided search repetitions on the enlarged set
+  /// Spatial support (see VerificationResult::spatial_support): grid cells per image side,
+  /// projected points a cell needs to be tested, matched share that supports it.
+  int support_grid = 4;
+  int support_min_points = 8;
+  double support_min_match_ratio = 0.2;
+  double min_spatial_support = 0.6;  ///< reject below this, in [0, 1] (0 disables)
+  std::string Validate() const;
+};
+
+struct VerificationResult {
+  bool accepted = false;
+  std::string reason;              ///< why it was rejected (empty if accepted)
+  Sim3 query_from_candidate;       ///< p_query = S * p_candidate (camera frames, map scales)
+  int bow_matches = 0;
+  int ransac_inliers = 0;          ///< of the BoW matches under the first Sim(3)
+  int final_inliers = 0;           ///< 3D-3D inliers of the refined Sim(3)
+  int total_matches = 0;           ///< consistent matches after guided search
+  /// 3D points of both views that project into the other image under the final Sim(3);
+  /// total_matches / projected is the match coverage.
+  int projected = 0;
+  /// Share of image regions where the projected points found matches (min over both views):
+  /// low when only one object agrees, e.g. an identical crate in another place.
+  double spatial_support = 0.0;
+  /// index1 = candidate keypoint, index2 = query keypoint (the total_matches pairs).
+  std::vector<FeatureMatch> matches;
+};
+
+/// Verifies that `candidate` shows the place `query` shows. Seeded: deterministic.
+VerificationResult VerifyPlace(const VerificationView& candidate, const VerificationView& query,
+                               const VerificationOptions& options = {});
+
+}  // namespace ccm

@@ -1,0 +1,215 @@
+// ccm_vocab: train, inspect and try out bag-of-words vocabularies.
+//   ccm_vocab train --dataset DIR [--format auto|euroc|tum|kitti] --out FILE [--k 10 --levels 6]
+//   ccm_vocab train --sim hall3 --sim repeated --out FILE --levels 5 --max-images 300
+//   ccm_vocab info FILE
+//   ccm_vocab query --vocab FILE --images a.png b.png c.png
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+
+#include "slam_core/io/dataset.h"
+#include "slam_core/place_recognition/vocabulary_io.h"
+#include "tools/vocab/vocab_training.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double SecondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// At most two progress lines per second (and the last one), so logs stay short.
+class ProgressLine {
+ public:
+  bool Due(bool last) {
+    const auto now = Clock::now();
+    if (!last && now - last_ < std::chrono::milliseconds(500)) return false;
+    last_ = now;
+    return true;
+  }
+
+ private:
+  Clock::time_point last_{};
+};
+
+struct TrainArgs {
+  std::string dataset, format = "auto", out;
+  std::vector<std::string> sim;
+  ccm::VocabularyOptions vocab;
+  std::int64_t max_images = 2000;
+  int features = 1000;
+};
+
+int Train(const TrainArgs& args) {
+  if (args.dataset.empty() == args.sim.empty()) {
+    std::fprintf(stderr, "train: give exactly one of --dataset or --sim\n");
+    return 2;
+  }
+  const std::string problem = args.vocab.Validate();
+  if (!problem.empty()) {
+    std::fprintf(stderr, "train: %s\n", problem.c_str());
+    return 2;
+  }
+  ccm::vocab::CollectOptions collect;
+  collect.max_images = args.max_images;
+  collect.orb.num_features = args.features;
+  std::vector<std::vector<ccm::OrbDescriptor>> images;
+  const auto t0 = Clock::now();
+  ProgressLine line;
+  auto progress = [&line](std::int64_t done, std::int64_t total) {
+    if (!line.Due(done == total)) return;
+    std::fprintf(stderr, "\rextracting ORB: %lld / %lld images", static_cast<long long>(done),
+                 static_cast<long long>(total));
+  };
+  std::string error;
+  if (!args.sim.empty()) {
+    error = ccm::vocab::CollectSimDescriptors(args.sim, collect, &images, progress);
+  } else {
+    const auto format = ccm::ParseDatasetFormat(args.format);
+    if (!format) {
+      std::fprintf(stderr, "train: unknown --format %s (auto, euroc, tum, kitti)\n", args.format.c_str());
+      return 2;
+    }
+    ccm::IoStatus status;
+    auto source = ccm::OpenDataset(args.dataset, *format, &status);
+    if (!source) {
+      std::fprintf(stderr, "train: %s\n", status.message().c_str());
+      return 1;
+    }
+    error = ccm::vocab::CollectDescriptors(source.get(), collect, &images, progress);
+  }
+  std::fprintf(stderr, "\n");
+  if (!error.empty()) {
+    std::fprintf(stderr, "train: %s\n", error.c_str());
+    return 1;
+  }
+  std::size_t total = 0;
+  for (const auto& im : images) total += im.size();
+  std::fprintf(stderr, "%zu images, %zu descriptors in %.1f s\n", images.size(), total, SecondsSince(t0));
+  if (images.empty()) return 1;
+  const auto t1 = Clock::now();
+  const ccm::Vocabulary vocab =
+      ccm::Vocabulary::Train(images, args.vocab, [&line](const ccm::TrainingProgress& p) {
+        if (!line.Due(p.fraction >= 1.0)) return;
+        std::fprintf(stderr, "\r%-10s %5.1f %%", p.stage.c_str(), 100.0 * p.fraction);
+      });
+  std::fprintf(stderr, "\ntrained k=%d L=%d: %zu words, %zu nodes in %.1f s\n", vocab.branching(),
+               vocab.levels(), vocab.num_words(), vocab.num_nodes(), SecondsSince(t1));
+  error = ccm::SaveVocabularyFile(vocab, args.out);
+  if (!error.empty()) {
+    std::fprintf(stderr, "train: %s\n", error.c_str());
+    return 1;
+  }
+  std::printf("wrote %s\n", args.out.c_str());
+  return 0;
+}
+
+int Info(const std::string& path) {
+  const auto t0 = Clock::now();
+  std::string error;
+  auto vocab = ccm::LoadVocabularyFile(path, &error);
+  const double load_s = SecondsSince(t0);
+  if (!vocab) {
+    std::fprintf(stderr, "info: %s\n", error.c_str());
+    return 1;
+  }
+  std::map<std::uint32_t, std::size_t> words_per_depth;
+  double min_w = 1e9, max_w = 0, sum_w = 0;
+  for (const auto& n : vocab->nodes()) {
+    if (n.word == ccm::Vocabulary::kNoWord) continue;
+    ++words_per_depth[n.depth];
+    min_w = std::min<double>(min_w, n.weight);
+    max_w = std::max<double>(max_w, n.weight);
+    sum_w += n.weight;
+  }
+  std::printf("file:        %s (%ju bytes, format v%u)\n", path.c_str(),
+              static_cast<std::uintmax_t>(std::filesystem::file_size(path)), ccm::kVocabularyVersion);
+  std::printf("branching k: %d\nlevels L:    %d\nweighting:   TF-IDF\nscoring:     L1\n",
+              vocab->branching(), vocab->levels());
+  std::printf("nodes:       %zu\nwords:       %zu\n", vocab->num_nodes(), vocab->num_words());
+  for (const auto& [depth, n] : words_per_depth) std::printf("  words at depth %u: %zu\n", depth, n);
+  std::printf("idf:         min %.3f  mean %.3f  max %.3f\n", min_w, sum_w / vocab->num_words(), max_w);
+  std::printf("load time:   %.1f ms\n", 1e3 * load_s);
+  return 0;
+}
+
+int Query(const std::string& vocab_path, const std::vector<std::string>& image_paths, int features) {
+  std::string error;
+  auto vocab = ccm::LoadVocabularyFile(vocab_path, &error);
+  if (!vocab) {
+    std::fprintf(stderr, "query: %s\n", error.c_str());
+    return 1;
+  }
+  ccm::OrbExtractorOptions orb;
+  orb.num_features = features;
+  ccm::OrbExtractor extractor(orb);
+  std::vector<ccm::BowVector> bows;
+  for (const auto& p : image_paths) {
+    cv::Mat image = cv::imread(p, cv::IMREAD_GRAYSCALE);
+    if (image.empty()) {
+      std::fprintf(stderr, "query: cannot read image %s\n", p.c_str());
+      return 1;
+    }
+    const auto features_of = extractor.Extract(image);
+    bows.emplace_back();
+    vocab->Transform(features_of.descriptors, &bows.back());
+    std::printf("[%zu] %s: %zu features, %zu words\n", bows.size() - 1, p.c_str(), features_of.size(),
+                bows.back().size());
+  }
+  std::printf("L1 scores:\n      ");
+  for (std::size_t j = 0; j < bows.size(); ++j) std::printf(" [%3zu]", j);
+  std::printf("\n");
+  for (std::size_t i = 0; i < bows.size(); ++i) {
+    std::printf("[%3zu] ", i);
+    for (std::size_t j = 0; j < bows.size(); ++j) std::printf(" %.3f", ccm::ScoreL1(bows[i], bows[j]));
+    std::printf("\n");
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ccm_vocab: train and inspect binary bag-of-words vocabularies"};
+  app.require_subcommand(1);
+
+  TrainArgs train;
+  auto* t = app.add_subcommand("train", "train a vocabulary from a dataset or simulator scenes");
+  t->add_option("--dataset", train.dataset, "dataset folder (EuRoC, TUM RGB-D, KITTI)");
+  t->add_option("--format", train.format, "auto, euroc, tum, kitti")->capture_default_str();
+  t->add_option("--sim", train.sim,
+                ccm::vocab::HaveSimulator() ? "simulator scenario (repeatable): hall3, disjoint2, repeated or YAML"
+                                            : "simulator scenario (not available in this build)");
+  t->add_option("--out", train.out, "output vocabulary file")->required();
+  t->add_option("--k", train.vocab.branching, "branching factor")->capture_default_str();
+  t->add_option("--levels", train.vocab.levels, "tree depth L")->capture_default_str();
+  t->add_option("--max-images", train.max_images, "images used, spread over the input (0 = all)")
+      ->capture_default_str();
+  t->add_option("--max-descriptors", train.vocab.max_descriptors,
+                "descriptors clustered (subsampled above this; 0 = all)")->capture_default_str();
+  t->add_option("--iterations", train.vocab.max_iterations, "k-majority iterations per node")
+      ->capture_default_str();
+  t->add_option("--features", train.features, "ORB features per image")->capture_default_str();
+  t->add_option("--seed", train.vocab.seed, "random seed")->capture_default_str();
+
+  std::string info_path;
+  auto* i = app.add_subcommand("info", "print a vocabulary's parameters and load time");
+  i->add_option("file", info_path, "vocabulary file")->required();
+
+  std::string query_vocab;
+  std::vector<std::string> query_images;
+  int query_features = 1000;
+  auto* q = app.add_subcommand("query", "bag-of-words scores between images (debugging)");
+  q->add_option("--vocab", query_vocab, "vocabulary file")->required();
+  q->add_option("--images", query_images, "images to compare")->required();
+  q->add_option("--features", query_features, "ORB features per image")->capture_default_str();
+
+  CLI11_PARSE(app, argc, argv);
+  if (*t) return Train(train);
+  if (*i) return Info(info_path);
+  return Query(query_vocab, query_images, query_features);
+}
