@@ -35,6 +35,7 @@ class KeyFrame {
   size_t num_keypoints() const { return features_->size(); }
   /// Unit bearing of keypoint i in the camera frame; zero if it could not be unprojected.
   const Eigen::Vector3d& bearing(size_t i) const { return bearings_[i]; }
+  const std::vector<Eigen::Vector3d>& bearings() const { return bearings_; }
 
   SE3 world_from_cam() const;
   SE3 cam_from_world() const;

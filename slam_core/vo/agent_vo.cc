@@ -1,0 +1,162 @@
+#include "slam_core/vo/agent_vo.h"
+
+#include <algorithm>
+#include <unordered_map>
+
+namespace ccm {
+namespace {
+
+OrbExtractorOptions WithFeatures(OrbExtractorOptions o, int n) {
+  o.num_features = n;
+  return o;
+}
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+AgentVo::AgentVo(AgentId agent, std::shared_ptr<const CameraModel> camera, VoOptions options,
+                 const AckSource* acks, bool synchronous_mapping)
+    : shared_(agent, std::move(camera), options),
+      synchronous_(synchronous_mapping),
+      extractor_(options.orb),
+      init_extractor_(WithFeatures(options.orb, options.init_num_features)),
+      tracker_(&shared_, [this](KeyframeJob job) { Enqueue(std::move(job)); }, [this] { return mapping_idle(); }),
+      mapper_(&shared_, acks) {}
+
+TrackingResult AgentVo::TrackFrame(const Frame& frame) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool initializing = !tracker_.map();
+  OrbExtractor& extractor = initializing ? init_extractor_ : extractor_;
+  VoFrame f = MakeVoFrame(frame.stamp_ns, frame_index_++, extractor.Extract(frame.image), *shared_.camera);
+  const TrackingResult r = tracker_.Track(std::move(f));
+  const double ms = MsSince(t0);
+  if (r.world_from_cam && shared_.options.record_frame_trajectory) {
+    if (const auto& ref = tracker_.reference_keyframe()) {
+      frame_records_.push_back({frame.stamp_ns, ref->id(), ref->cam_from_world() * *r.world_from_cam, *r.world_from_cam});
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.frames;
+    stats_.frames_tracked += r.world_from_cam.has_value();
+    stats_.keyframes_created += r.new_keyframe;
+    stats_.segments = tracker_.segments_started() + 1;
+    stats_.tracking_ms.push_back(ms);
+  }
+  if (synchronous_) DrainMapping();
+  return r;
+}
+
+void AgentVo::Enqueue(KeyframeJob job) {
+  {
+    std::lock_guard<std::mutex> lock(jobs_mutex_);
+    jobs_.push_back(std::move(job));
+  }
+  jobs_cv_.notify_one();
+}
+
+bool AgentVo::RunMappingOnce(std::chrono::milliseconds timeout) {
+  KeyframeJob job;
+  {
+    std::unique_lock<std::mutex> lock(jobs_mutex_);
+    if (!jobs_cv_.wait_for(lock, timeout, [this] { return stopping_ || !jobs_.empty(); })) return false;
+    if (jobs_.empty()) return false;
+    job = std::move(jobs_.front());
+    jobs_.pop_front();
+    mapping_busy_ = true;
+  }
+  ProcessJob(job);
+  {
+    std::lock_guard<std::mutex> lock(jobs_mutex_);
+    mapping_busy_ = false;
+  }
+  return true;
+}
+
+void AgentVo::DrainMapping() {
+  while (RunMappingOnce(std::chrono::milliseconds(0))) {
+  }
+}
+
+void AgentVo::Stop() {
+  {
+    std::lock_guard<std::mutex> lock(jobs_mutex_);
+    stopping_ = true;
+  }
+  jobs_cv_.notify_all();
+}
+
+bool AgentVo::mapping_idle() const {
+  std::lock_guard<std::mutex> lock(jobs_mutex_);
+  return jobs_.empty() && !mapping_busy_;
+}
+
+void AgentVo::ProcessJob(const KeyframeJob& job) {
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    mapper_.Process(job);
+  }
+  const double ms = MsSince(t0);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.mapping_ms.push_back(ms);
+}
+
+VoChanges AgentVo::TakeChanges() {
+  VoChanges c;
+  c.map = tracker_.map();
+  c.reference_kf = tracker_.reference_kf();
+  shared_.changes.Take(&c.keyframes, &c.map_points);
+  return c;
+}
+
+std::shared_ptr<Map> AgentVo::map() const { return tracker_.map(); }
+
+AgentVoStats AgentVo::stats() const {
+  AgentVoStats s;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    s = stats_;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    s.mapping = mapper_.stats();
+    s.trim = mapper_.trim_stats();
+  }
+  if (const auto m = tracker_.map()) {
+    s.keyframes_in_map = m->num_keyframes();
+    s.map_points_in_map = m->num_map_points();
+  }
+  return s;
+}
+
+std::vector<KeyframePose> AgentVo::FrameTrajectory() const {
+  std::unordered_map<KeyframeId, SE3> kf_poses;
+  for (const KeyframePose& k : KeyframeTrajectory()) kf_poses.emplace(k.id, k.world_from_cam);
+  std::vector<KeyframePose> out;
+  out.reserve(frame_records_.size());
+  for (const FrameRecord& r : frame_records_) {
+    const auto it = kf_poses.find(r.reference);
+    const SE3 pose = it != kf_poses.end() ? it->second * r.reference_from_cam : r.world_from_cam;
+    out.push_back({r.reference, MapId(), r.stamp_ns, pose});
+  }
+  return out;
+}
+
+std::vector<KeyframePose> AgentVo::KeyframeTrajectory() const {
+  std::vector<KeyframePose> out;
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    for (const auto& [id, sp] : mapper_.retired_keyframes()) out.push_back({id, MapId(), sp.first, sp.second});
+  }
+  if (const auto m = tracker_.map()) {
+    for (const auto& kf : m->keyframes()) out.push_back({kf->id(), m->id(), kf->stamp_ns(), kf->world_from_cam()});
+  }
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  return out;
+}
+
+}  // namespace ccm

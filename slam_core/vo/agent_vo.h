@@ -1,0 +1,111 @@
+// Facade of the agent's visual odometry for the runtime: feed frames, read the pose,
+// drain changed keyframes/points for the comm module. Tracking and local mapping are
+// synchronous steps; the caller decides where they run:
+//   * synchronous mapping (tests, deterministic runs): TrackFrame() also processes every
+//     new keyframe before returning;
+//   * threaded (ccm_agent): the tracking thread calls TrackFrame(), a mapping thread owned
+//     by the runtime loops on RunMappingOnce(); Stop() wakes it for shutdown.
+// Lock order: jobs_mutex_ is never held while the map or a keyframe is locked;
+// mapper_mutex_ and stats_mutex_ are never held together.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "slam_core/io/frame_source.h"
+#include "slam_core/vo/local_mapper.h"
+#include "slam_core/vo/tracker.h"
+
+namespace ccm {
+
+struct KeyframePose {
+  KeyframeId id;
+  MapId segment;
+  int64_t stamp_ns = 0;
+  SE3 world_from_cam;
+};
+
+struct AgentVoStats {
+  int64_t frames = 0;
+  int64_t frames_tracked = 0;
+  int64_t keyframes_created = 0;
+  int segments = 0;
+  size_t keyframes_in_map = 0;
+  size_t map_points_in_map = 0;
+  MappingStats mapping;
+  TrimStats trim;
+  std::vector<double> tracking_ms;  ///< per frame (feature extraction included)
+  std::vector<double> mapping_ms;   ///< per keyframe
+};
+
+/// What changed since the last TakeChanges(): the comm module's input.
+struct VoChanges {
+  std::shared_ptr<Map> map;  ///< segment the ids refer to
+  std::set<KeyframeId> keyframes;
+  std::set<MapPointId> map_points;
+  KeyframeId reference_kf;
+};
+
+class AgentVo {
+ public:
+  AgentVo(AgentId agent, std::shared_ptr<const CameraModel> camera, VoOptions options, const AckSource* acks,
+          bool synchronous_mapping);
+
+  /// Tracking thread. Returns the tracking outcome of this frame.
+  TrackingResult TrackFrame(const Frame& frame);
+
+  /// Mapping thread: waits up to `timeout` for a keyframe and processes it. False if
+  /// none arrived or Stop() was called.
+  bool RunMappingOnce(std::chrono::milliseconds timeout);
+  void Stop();
+  /// Processes queued keyframes on the calling thread (end of a threaded run).
+  void DrainMapping();
+  bool mapping_idle() const;
+
+  VoChanges TakeChanges();
+  std::shared_ptr<Map> map() const;
+  AgentVoStats stats() const;
+  /// Per tracked frame: its pose composed with the final pose of its reference keyframe
+  /// (as ORB-SLAM writes trajectories, so later keyframe refinement improves every frame).
+  /// Frames whose keyframe vanished with a discarded segment keep their tracking pose.
+  /// Recorded only with VoOptions::record_frame_trajectory.
+  std::vector<KeyframePose> FrameTrajectory() const;
+  /// Poses of all keyframes ever created: retired ones with their last pose, then the
+  /// current segment's map. Sorted by id.
+  std::vector<KeyframePose> KeyframeTrajectory() const;
+
+ private:
+  void Enqueue(KeyframeJob job);
+  void ProcessJob(const KeyframeJob& job);
+
+  VoShared shared_;
+  const bool synchronous_;
+  OrbExtractor extractor_, init_extractor_;
+  Tracker tracker_;
+  mutable std::mutex mapper_mutex_;  // guards mapper_ (its stats are read by other threads)
+  LocalMapper mapper_;
+  int64_t frame_index_ = 0;
+
+  mutable std::mutex jobs_mutex_;
+  std::condition_variable jobs_cv_;
+  std::deque<KeyframeJob> jobs_;
+  bool stopping_ = false;
+  bool mapping_busy_ = false;
+
+  struct FrameRecord {
+    int64_t stamp_ns;
+    KeyframeId reference;
+    SE3 reference_from_cam;
+    SE3 world_from_cam;  ///< at tracking time (fallback)
+  };
+  std::vector<FrameRecord> frame_records_;  // tracking thread only
+
+  mutable std::mutex stats_mutex_;
+  AgentVoStats stats_;
+};
+
+}  // namespace ccm

@@ -1,0 +1,40 @@
+// Monocular map initialization from two frames: window matching against a reference
+// frame, essential/homography model selection and triangulation (ccm_solvers), then a
+// two-keyframe bundle adjustment and scale normalization (median depth 1).
+// Synchronous; used by the Tracker on the tracking thread.
+#pragma once
+
+#include <memory>
+#include <optional>
+
+#include "slam_core/vo/vo_frame.h"
+#include "slam_core/vo/vo_shared.h"
+
+namespace ccm {
+
+struct InitializationResult {
+  std::shared_ptr<Map> map;
+  std::shared_ptr<KeyFrame> kf1, kf2;  ///< kf1 at the origin of the segment's frame
+  std::vector<std::shared_ptr<MapPoint>> cur_matches;  ///< per keypoint of the current frame
+  int num_points = 0;
+};
+
+class Initializer {
+ public:
+  explicit Initializer(VoShared* shared) : shared_(shared) {}
+  /// Feeds one frame; returns the new map once two views initialize it.
+  std::optional<InitializationResult> AddFrame(const VoFrame& frame);
+  void Reset() {
+    reference_.reset();
+    search_centres_.clear();
+  }
+
+ private:
+  std::optional<InitializationResult> TryInitialize(const VoFrame& cur);
+
+  VoShared* shared_;
+  std::optional<VoFrame> reference_;
+  std::vector<Eigen::Vector2f> search_centres_;  ///< per reference keypoint
+};
+
+}  // namespace ccm

@@ -1,0 +1,30 @@
+// Bridges the map and the map-agnostic optimizers: copies keyframes, points and
+// observations into an opt::BundleProblem, runs bundle adjustment and writes poses,
+// positions and outlier removals back. Used by initialization and local mapping.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "slam_core/map/map.h"
+#include "slam_core/optimization/bundle_adjustment.h"
+#include "slam_core/vo/vo_shared.h"
+
+namespace ccm {
+
+struct MapBaReport {
+  opt::OptimizationSummary summary;
+  int num_free_keyframes = 0;
+  int num_fixed_keyframes = 0;
+  int num_points = 0;
+  int outliers_removed = 0;
+};
+
+/// Optimizes `free_kfs` and every point they observe; other keyframes observing those
+/// points enter as fixed (at most max_fixed of them, most observations first).
+/// With remove_outliers, observations flagged as outliers are erased from the map.
+MapBaReport BundleAdjustKeyframes(Map* map, const std::vector<std::shared_ptr<KeyFrame>>& free_kfs,
+                                  int max_fixed, const opt::BundleAdjusterOptions& options,
+                                  bool remove_outliers, ChangeLog* changes);
+
+}  // namespace ccm

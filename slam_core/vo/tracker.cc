@@ -1,0 +1,278 @@
+#include "slam_core/vo/tracker.h"
+
+#include <algorithm>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "slam_core/optimization/bundle_adjustment.h"
+#include "slam_core/solvers/absolute_pose.h"
+#include "slam_core/vo/vo_matching.h"
+
+namespace ccm {
+
+const char* TrackingStateName(TrackingState state) {
+  switch (state) {
+    case TrackingState::kInitializing: return "initializing";
+    case TrackingState::kTracking: return "tracking";
+    case TrackingState::kLost: return "lost";
+  }
+  return "?";
+}
+
+Tracker::Tracker(VoShared* shared, KeyframeSink sink, std::function<bool()> mapper_idle)
+    : shared_(shared), sink_(std::move(sink)), mapper_idle_(std::move(mapper_idle)), initializer_(shared) {}
+
+TrackingResult Tracker::Track(VoFrame frame) {
+  TrackingResult result;
+  if (state_ == TrackingState::kInitializing) {
+    if (auto init = initializer_.AddFrame(frame)) {
+      frame.world_from_cam = init->kf2->world_from_cam();
+      frame.map_points = init->cur_matches;
+      OnInitialized(*init);
+      result.world_from_cam = frame.world_from_cam;
+      result.inliers = frame.NumMatched();
+      result.new_keyframe = true;
+      last_frame_ = std::move(frame);
+    }
+    result.state = state_;
+    result.segment = map_ ? map_->id() : MapId::Invalid();
+    return result;
+  }
+
+  bool ok = false;
+  if (state_ == TrackingState::kTracking) {
+    ok = (velocity_ && TrackWithMotionModel(&frame)) || TrackReferenceKeyframe(&frame);
+  } else {
+    ok = Relocalize(&frame);
+    if (ok) last_reloc_frame_index_ = frame.index;
+  }
+  int inliers = 0;
+  if (ok) {
+    inliers = TrackLocalMap(&frame);
+    const bool recently_relocalized = frame.index - last_reloc_frame_index_ < shared_->options.kf_max_frames;
+    const int needed = recently_relocalized ? shared_->options.min_inliers_after_reloc
+                                            : shared_->options.min_inliers_local_map;
+    ok = inliers >= needed;
+  }
+  if (ok) {
+    state_ = TrackingState::kTracking;
+    lost_frames_ = 0;
+    if (last_frame_) velocity_ = frame.cam_from_world() * last_frame_->world_from_cam;
+    result.world_from_cam = frame.world_from_cam;
+    result.inliers = inliers;
+    if (NeedNewKeyframe(frame, inliers)) {
+      CreateKeyframe(frame);
+      result.new_keyframe = true;
+    }
+    frame.DiscardOutliers();
+    last_frame_ = std::move(frame);
+  } else {
+    state_ = TrackingState::kLost;
+    velocity_.reset();
+    if (++lost_frames_ > shared_->options.lost_frames_before_new_segment) {
+      StartNewSegment();
+      result.new_segment = true;
+    }
+  }
+  result.state = state_;
+  result.segment = map_ ? map_->id() : MapId::Invalid();
+  return result;
+}
+
+void Tracker::OnInitialized(const InitializationResult& init) {
+  map_ = init.map;
+  state_ = TrackingState::kTracking;
+  reference_kf_ = init.kf2;
+  reference_tracked_ = init.num_points;
+  velocity_.reset();
+  lost_frames_ = 0;
+  sink_(KeyframeJob{map_, init.kf1, {}, true});
+  sink_(KeyframeJob{map_, init.kf2, {}, true});
+}
+
+void Tracker::StartNewSegment() {
+  // Relocalization kept failing: keep flying on a new local map; the server can merge
+  // the segments later through place recognition.
+  state_ = TrackingState::kInitializing;
+  initializer_.Reset();
+  map_.reset();
+  reference_kf_.reset();
+  last_frame_.reset();
+  velocity_.reset();
+  lost_frames_ = 0;
+  ++segments_started_;
+}
+
+int Tracker::OptimizeFramePose(VoFrame* f) {
+  std::vector<opt::PointObservation> obs;
+  std::vector<int> kp_index;
+  for (size_t i = 0; i < f->size(); ++i) {
+    if (!f->map_points[i]) continue;
+    const Keypoint& kp = f->features->keypoints[i];
+    obs.push_back({f->map_points[i]->position(), Eigen::Vector2d(kp.u, kp.v), shared_->pyramid->scale[kp.level]});
+    kp_index.push_back(static_cast<int>(i));
+  }
+  if (obs.size() < 3) return 0;
+  SE3 pose = f->world_from_cam;
+  const opt::OptimizationSummary s = opt::OptimizePose(*shared_->camera, obs, &pose);
+  if (!s.usable) return 0;
+  f->world_from_cam = pose;
+  for (size_t k = 0; k < kp_index.size(); ++k) f->outlier[kp_index[k]] = !s.inlier[k];
+  return s.num_inliers;
+}
+
+bool Tracker::TrackWithMotionModel(VoFrame* f) {
+  f->world_from_cam = (*velocity_ * last_frame_->cam_from_world()).inverse();
+  std::vector<std::shared_ptr<MapPoint>> points;
+  for (size_t i = 0; i < last_frame_->size(); ++i) {
+    if (last_frame_->map_points[i] && !last_frame_->map_points[i]->bad()) points.push_back(last_frame_->map_points[i]);
+  }
+  const CameraModel& cam = *shared_->camera;
+  const double r = shared_->options.projection_radius_px;
+  int n = SearchMapPointsByProjection(f, points, cam, *shared_->pyramid, r, false, 0.0);
+  if (n < shared_->options.min_matches_motion_model) {
+    std::fill(f->map_points.begin(), f->map_points.end(), nullptr);
+    n = SearchMapPointsByProjection(f, points, cam, *shared_->pyramid, 2 * r, false, 0.0);
+  }
+  if (n < shared_->options.min_matches_motion_model) return false;
+  const int inliers = OptimizeFramePose(f);
+  f->DiscardOutliers();
+  return inliers >= shared_->options.min_inliers_frame;
+}
+
+bool Tracker::TrackReferenceKeyframe(VoFrame* f) {
+  if (!reference_kf_ || !last_frame_) return false;
+  // No motion prior: start from the last pose and search the reference keyframe's
+  // points in a wide window (a bag-of-words search once the vocabulary is wired in).
+  f->world_from_cam = last_frame_->world_from_cam;
+  std::fill(f->map_points.begin(), f->map_points.end(), nullptr);
+  std::vector<std::shared_ptr<MapPoint>> points;
+  for (const MapPointId id : reference_kf_->map_points()) {
+    if (!id.valid()) continue;
+    if (const auto mp = map_->map_point(id)) points.push_back(mp);
+  }
+  const int n = SearchMapPointsByProjection(f, points, *shared_->camera, *shared_->pyramid,
+                                            4 * shared_->options.projection_radius_px, false, 0.0);
+  if (n < shared_->options.min_matches_motion_model) return false;
+  const int inliers = OptimizeFramePose(f);
+  f->DiscardOutliers();
+  return inliers >= shared_->options.min_inliers_frame;
+}
+
+bool Tracker::Relocalize(VoFrame* f) {
+  if (!map_) return false;
+  std::vector<std::shared_ptr<MapPoint>> points = map_->map_points();
+  const auto matches = MatchFrameToPoints(*f, points);
+  if (static_cast<int>(matches.size()) < shared_->options.reloc_min_matches) return false;
+  std::vector<Eigen::Vector3d> bearings, world;
+  for (const auto& [kp, mp] : matches) {
+    bearings.push_back(f->bearings[kp]);
+    world.push_back(mp->position());
+  }
+  solvers::AbsolutePoseOptions o;
+  o.ransac.focal_px = shared_->camera->intrinsics().fx;
+  o.ransac.threshold_px = 4.0;
+  o.ransac.max_iterations = 300;
+  o.min_inliers = shared_->options.reloc_min_matches / 2;
+  const auto pose = solvers::EstimateAbsolutePose(bearings, world, o);
+  if (!pose.ok()) return false;
+  f->world_from_cam = pose.world_from_cam;
+  std::fill(f->map_points.begin(), f->map_points.end(), nullptr);
+  for (size_t k = 0; k < matches.size(); ++k) {
+    if (pose.inliers[k]) f->map_points[matches[k].first] = matches[k].second;
+  }
+  const int inliers = OptimizeFramePose(f);
+  f->DiscardOutliers();
+  return inliers >= shared_->options.min_inliers_frame;
+}
+
+std::vector<std::shared_ptr<KeyFrame>> Tracker::LocalKeyframes(const VoFrame& f) const {
+  // Keyframes that see the frame's matched points, strongest first, plus their best
+  // covisible neighbours (ORB-SLAM's local map), capped.
+  std::unordered_map<KeyframeId, int> counts;
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (!f.map_points[i] || f.outlier[i]) continue;
+    for (const auto& [kf, idx] : f.map_points[i]->observations()) ++counts[kf];
+  }
+  std::vector<std::pair<int, KeyframeId>> ranked;
+  for (const auto& [kf, n] : counts) ranked.emplace_back(n, kf);
+  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  const size_t cap = static_cast<size_t>(shared_->options.local_map_max_keyframes);
+  std::vector<std::shared_ptr<KeyFrame>> out;
+  std::unordered_set<KeyframeId> taken;
+  auto take = [&](KeyframeId id) {
+    if (out.size() >= cap || taken.count(id)) return;
+    if (const auto kf = map_->keyframe(id); kf && !kf->bad()) {
+      taken.insert(id);
+      out.push_back(kf);
+    }
+  };
+  for (const auto& [n, id] : ranked) take(id);
+  if (out.empty() && reference_kf_) take(reference_kf_->id());
+  const size_t direct = out.size();
+  for (size_t k = 0; k < direct && out.size() < cap; ++k) {
+    for (const KeyframeId n : out[k]->BestCovisible(10)) take(n);
+  }
+  return out;
+}
+
+int Tracker::TrackLocalMap(VoFrame* f) {
+  const auto local_kfs = LocalKeyframes(*f);
+  std::unordered_set<MapPointId> already;
+  for (size_t i = 0; i < f->size(); ++i) {
+    if (f->map_points[i]) already.insert(f->map_points[i]->id());
+  }
+  std::vector<std::shared_ptr<MapPoint>> points;
+  for (const auto& kf : local_kfs) {
+    for (const MapPointId id : kf->map_points()) {
+      if (!id.valid() || !already.insert(id).second) continue;
+      if (const auto mp = map_->map_point(id); mp && !mp->bad()) points.push_back(mp);
+    }
+  }
+  SearchMapPointsByProjection(f, points, *shared_->camera, *shared_->pyramid, 1.0 * 3.0, true,
+                              shared_->options.min_view_cos);
+  const int inliers = OptimizeFramePose(f);
+  for (size_t i = 0; i < f->size(); ++i) {
+    if (f->map_points[i] && !f->outlier[i]) f->map_points[i]->IncreaseFound();
+  }
+  return inliers;
+}
+
+bool Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
+  const VoOptions& o = shared_->options;
+  const int64_t since = f.index - last_kf_frame_index_;
+  const bool max_passed = since >= o.kf_max_frames;
+  const bool min_passed_idle = since >= o.kf_min_frames && mapper_idle_();
+  // Points of the reference keyframe seen by enough keyframes (ORB-SLAM: 2 while the map
+  // has two keyframes, else 3); until mapping processed it, the count at creation.
+  int ref_points = reference_tracked_;
+  if (reference_kf_ && map_->keyframe(reference_kf_->id())) {
+    const int min_obs = map_->num_keyframes() <= 2 ? 2 : 3;
+    int n = 0;
+    for (const MapPointId id : reference_kf_->map_points()) {
+      if (!id.valid()) continue;
+      const auto mp = map_->map_point(id);
+      n += mp && mp->num_observations() >= min_obs;
+    }
+    ref_points = n;
+  }
+  const bool few_tracked = inliers < o.kf_tracked_ratio * ref_points;
+  return (max_passed || min_passed_idle) && few_tracked && inliers > o.kf_min_inliers;
+}
+
+void Tracker::CreateKeyframe(const VoFrame& f) {
+  auto kf = std::make_shared<KeyFrame>(shared_->kf_ids.Next(), f.stamp_ns, shared_->camera, f.features,
+                                       shared_->pyramid, f.world_from_cam);
+  KeyframeJob job{map_, kf, f.map_points, false};
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (f.outlier[i]) job.matches[i] = nullptr;
+  }
+  reference_kf_ = kf;
+  reference_tracked_ = f.NumMatched();
+  last_kf_frame_index_ = f.index;
+  sink_(std::move(job));
+}
+
+}  // namespace ccm

@@ -1,0 +1,79 @@
+// Tracking: estimates the pose of every frame against the agent's local map (motion
+// model + projection matching, then the local map), decides when a frame becomes a
+// keyframe, relocalizes when lost and opens a new map segment when relocalization keeps
+// failing. Synchronous; called by the tracking thread only. Keyframes go to the local
+// mapper through the sink given at construction.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+
+#include "slam_core/vo/initializer.h"
+#include "slam_core/vo/vo_frame.h"
+#include "slam_core/vo/vo_shared.h"
+
+namespace ccm {
+
+enum class TrackingState { kInitializing, kTracking, kLost };
+const char* TrackingStateName(TrackingState state);
+
+/// A new keyframe handed from tracking to local mapping.
+struct KeyframeJob {
+  std::shared_ptr<Map> map;  ///< segment the keyframe belongs to
+  std::shared_ptr<KeyFrame> keyframe;
+  std::vector<std::shared_ptr<MapPoint>> matches;  ///< per keypoint, tracked points
+  bool already_in_map = false;  ///< initialization keyframes are inserted by the tracker
+};
+
+struct TrackingResult {
+  TrackingState state = TrackingState::kInitializing;
+  std::optional<SE3> world_from_cam;  ///< set when the frame was tracked
+  int inliers = 0;
+  bool new_keyframe = false;
+  bool new_segment = false;
+  MapId segment;
+};
+
+class Tracker {
+ public:
+  using KeyframeSink = std::function<void(KeyframeJob)>;
+  /// `mapper_idle` tells whether local mapping has nothing queued (keyframe decision).
+  Tracker(VoShared* shared, KeyframeSink sink, std::function<bool()> mapper_idle);
+
+  TrackingResult Track(VoFrame frame);
+
+  std::shared_ptr<Map> map() const { return map_; }
+  KeyframeId reference_kf() const { return reference_kf_ ? reference_kf_->id() : KeyframeId::Invalid(); }
+  const std::shared_ptr<KeyFrame>& reference_keyframe() const { return reference_kf_; }
+  int segments_started() const { return segments_started_; }
+
+ private:
+  bool TrackWithMotionModel(VoFrame* f);
+  bool TrackReferenceKeyframe(VoFrame* f);
+  bool Relocalize(VoFrame* f);
+  int TrackLocalMap(VoFrame* f);
+  int OptimizeFramePose(VoFrame* f);
+  bool NeedNewKeyframe(const VoFrame& f, int inliers) const;
+  void CreateKeyframe(const VoFrame& f);
+  void StartNewSegment();
+  void OnInitialized(const InitializationResult& init);
+  std::vector<std::shared_ptr<KeyFrame>> LocalKeyframes(const VoFrame& f) const;
+
+  VoShared* shared_;
+  KeyframeSink sink_;
+  std::function<bool()> mapper_idle_;
+  Initializer initializer_;
+  std::shared_ptr<Map> map_;
+  TrackingState state_ = TrackingState::kInitializing;
+  std::optional<VoFrame> last_frame_;
+  std::optional<SE3> velocity_;  ///< cam_from_world(k) * world_from_cam(k-1)
+  std::shared_ptr<KeyFrame> reference_kf_;
+  int reference_tracked_ = 0;      ///< points the reference keyframe tracked when created
+  int64_t last_kf_frame_index_ = 0;
+  int64_t last_reloc_frame_index_ = -1000;
+  int lost_frames_ = 0;
+  int segments_started_ = 0;
+};
+
+}  // namespace ccm

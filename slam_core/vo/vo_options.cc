@@ -1,0 +1,28 @@
+#include "slam_core/vo/vo_options.h"
+
+namespace ccm {
+
+std::string VoOptions::Validate() const {
+  if (auto e = orb.Validate(); !e.empty()) return "orb: " + e;
+  if (auto e = map.Validate(); !e.empty()) return "map: " + e;
+  if (auto e = bound.Validate(); !e.empty()) return "local map: " + e;
+  if (init_num_features < orb.num_features) return "init_num_features must be >= orb.num_features";
+  if (init_min_matches < 8) return "init_min_matches must be >= 8";
+  if (init_min_homography_ratio <= 0 || init_min_homography_ratio > 1) return "init_min_homography_ratio must be in (0, 1]";
+  if (init_window_px <= 0) return "init_window_px must be > 0";
+  if (init_max_frames < 1) return "init_max_frames must be >= 1";
+  if (projection_radius_px <= 0) return "projection_radius_px must be > 0";
+  if (min_inliers_frame < 3) return "min_inliers_frame must be >= 3";
+  if (min_inliers_local_map < min_inliers_frame) return "min_inliers_local_map must be >= min_inliers_frame";
+  if (kf_max_frames < 1 || kf_min_frames < 0 || kf_min_frames > kf_max_frames) {
+    return "need 0 <= kf_min_frames <= kf_max_frames and kf_max_frames >= 1";
+  }
+  if (kf_tracked_ratio <= 0 || kf_tracked_ratio > 1) return "kf_tracked_ratio must be in (0, 1]";
+  if (local_ba_window < 2) return "local_ba_window must be >= 2";
+  if (local_ba_max_fixed < 1) return "local_ba_max_fixed must be >= 1";
+  if (redundant_kf_ratio <= 0 || redundant_kf_ratio > 1) return "redundant_kf_ratio must be in (0, 1]";
+  if (lost_frames_before_new_segment < 1) return "lost_frames_before_new_segment must be >= 1";
+  return "";
+}
+
+}  // namespace ccm

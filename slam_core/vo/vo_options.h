@@ -1,0 +1,70 @@
+// All tunables of the agent's monocular VO in one place, with units and defaults
+// (mostly ORB-SLAM's monocular values). Parsed from YAML by the agent runtime only.
+#pragma once
+
+#include <string>
+
+#include "slam_core/feature/orb_extractor.h"
+#include "slam_core/map/map.h"
+#include "slam_core/vo/local_map_bound.h"
+
+namespace ccm {
+
+struct VoOptions {
+  OrbExtractorOptions orb;
+  /// Features to extract while initializing (ORB-SLAM doubles them for mono init).
+  int init_num_features = 2000;
+  MapOptions map;
+  LocalMapBoundOptions bound;
+
+  // Initialization.
+  int init_min_matches = 100;        ///< window matches needed to attempt two-view init
+  double init_window_px = 100.0;     ///< search window around the reference keypoint
+  int init_min_map_points = 100;     ///< triangulated points needed to accept init
+  int init_max_frames = 40;          ///< frames before the reference frame is replaced
+  double init_min_parallax_deg = 1.0;  ///< median parallax of the initial points [deg]
+  /// The homography model is used only above this score ratio S_H / (S_H + S_E).
+  /// ORB-SLAM uses 0.40; on the simulator's halls (floor + walls, ~1 deg parallax) the
+  /// homography's two decompositions were hard to tell apart and 0.40 picked a motion
+  /// 80 deg off, so the essential matrix is preferred unless the view is clearly planar.
+  double init_min_homography_ratio = 0.7;
+
+  // Tracking.
+  double projection_radius_px = 15.0;  ///< motion-model search radius at level 0
+  int min_matches_motion_model = 20;   ///< below: retry with a doubled radius
+  int min_inliers_frame = 10;          ///< pose-only optimization inliers to accept a frame pose
+  int min_inliers_local_map = 30;      ///< inliers after local-map tracking to count as tracked
+  int min_inliers_after_reloc = 50;
+  int local_map_max_keyframes = 80;    ///< cap on keyframes whose points are tracked
+  double min_view_cos = 0.5;           ///< points seen at > 60 deg from their mean normal skipped
+
+  // Keyframe decision.
+  int kf_min_frames = 0;               ///< frames since last KF before a new one may be made
+  int kf_max_frames = 20;              ///< a KF is forced after this many frames (= fps)
+  double kf_tracked_ratio = 0.9;       ///< new KF when tracked < ratio * reference KF's points
+  int kf_min_inliers = 15;
+
+  // Relocalization / new map segment.
+  int reloc_min_matches = 30;
+  int lost_frames_before_new_segment = 40;  ///< failed relocalizations before a new segment
+
+  // Local mapping.
+  int triangulation_neighbours = 10;   ///< covisible KFs searched for new points
+  int fusion_neighbours = 10;
+  int local_ba_window = 10;            ///< keyframes optimized by local BA (incl. the new one)
+  int local_ba_max_fixed = 30;         ///< cap on fixed periphery keyframes
+  double redundant_kf_ratio = 0.9;     ///< KF culled when this share of its points is seen 3x
+  double min_baseline_depth_ratio = 0.01;  ///< skip triangulation pairs below this baseline
+  /// New points need at least this ray angle. Near the threshold, noisy rays that happen
+  /// to look more parallel are rejected and more convergent ones kept, so too low a value
+  /// biases depths short and shrinks the map scale (seen at 1.15 deg on the simulator).
+  double min_triangulation_parallax_deg = 1.15;
+
+  /// Keep one small record per tracked frame for FrameTrajectory() (standalone runs,
+  /// evaluation). Off for unbounded onboard runs: it grows with the flight time.
+  bool record_frame_trajectory = true;
+
+  std::string Validate() const;
+};
+
+}  // namespace ccm

@@ -1,0 +1,73 @@
+// State shared by the agent's tracking and local-mapping components: camera, options,
+// the current map segment, id generators and the change log the comm module drains.
+// Created and owned by AgentVo; the members say which thread may touch them.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <set>
+
+#include "slam_core/map/map.h"
+#include "slam_core/vo/vo_options.h"
+
+namespace ccm {
+
+/// Thread-safe ascending ids of one agent (tracking creates keyframes, mapping points).
+template <typename IdT>
+class AtomicIdGenerator {
+ public:
+  explicit AtomicIdGenerator(AgentId agent) : agent_(agent) {}
+  IdT Next() { return IdT::Make(agent_, next_.fetch_add(1)); }
+
+ private:
+  const AgentId agent_;
+  std::atomic<uint64_t> next_{1};
+};
+
+/// Keyframes and points created or changed since the comm module last asked.
+class ChangeLog {
+ public:
+  void Touch(KeyframeId kf) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    keyframes_.insert(kf);
+  }
+  void Touch(MapPointId mp) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map_points_.insert(mp);
+  }
+  void Take(std::set<KeyframeId>* kfs, std::set<MapPointId>* mps) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    kfs->swap(keyframes_);
+    mps->swap(map_points_);
+    keyframes_.clear();
+    map_points_.clear();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::set<KeyframeId> keyframes_;
+  std::set<MapPointId> map_points_;
+};
+
+struct VoShared {
+  VoShared(AgentId agent_id, std::shared_ptr<const CameraModel> cam, const VoOptions& opts)
+      : agent(agent_id),
+        camera(std::move(cam)),
+        options(opts),
+        pyramid(std::make_shared<ScalePyramid>(ScalePyramid::Make(opts.orb.num_levels, opts.orb.scale_factor))),
+        kf_ids(agent_id),
+        mp_ids(agent_id),
+        map_ids(agent_id) {}
+
+  const AgentId agent;
+  const std::shared_ptr<const CameraModel> camera;
+  const VoOptions options;
+  const std::shared_ptr<const ScalePyramid> pyramid;
+  AtomicIdGenerator<KeyframeId> kf_ids;
+  AtomicIdGenerator<MapPointId> mp_ids;
+  AtomicIdGenerator<MapId> map_ids;
+  ChangeLog changes;
+};
+
+}  // namespace ccm
