@@ -73,7 +73,7 @@ std::optional<Vocabulary> DeserializeVocabulary(const std::uint8_t* data, std::s
   };
   if (size < kHeaderBytes + kChecksumBytes) return fail("file too short for a vocabulary header");
   if (std::memcmp(data, kVocabularyMagic, 8) != 0) {
-    return fail("not a ccm vocabulary file (bad magic; DBoW2 text/YAML files are not supported)");
+    return fail("not a ccm vocabulary file (bad magic; import DBoW2 text files with ccm_vocab convert)");
   }
   const std::uint32_t version = GetU32(data + 8);
   if (version != kVocabularyVersion) {
@@ -141,6 +141,54 @@ std::optional<Vocabulary> LoadVocabularyFile(const std::string& path, std::strin
   }
   std::string problem;
   auto vocab = DeserializeVocabulary(bytes.data(), bytes.size(), &problem);
+  if (!vocab && error) *error = path + ": " + problem;
+  return vocab;
+}
+
+std::optional<Vocabulary> ImportDbow2TextVocabulary(std::istream& in, std::string* error) {
+  auto fail = [&](const std::string& message) -> std::optional<Vocabulary> {
+    if (error) *error = message;
+    return std::nullopt;
+  };
+  int k = 0, levels = 0, scoring = -1, weighting = -1;
+  if (!(in >> k >> levels >> scoring >> weighting)) return fail("DBoW2 text: bad header line");
+  if (scoring != 0 || weighting != 0) {
+    return fail("DBoW2 text: only L1 scoring (0) and TF-IDF weighting (0) are supported");
+  }
+  std::vector<Vocabulary::Node> nodes(1);
+  std::size_t line = 1;
+  long long parent = 0;
+  int is_leaf = 0;
+  while (in >> parent >> is_leaf) {
+    ++line;
+    Vocabulary::Node n;
+    for (auto& byte : n.descriptor) {
+      int v = 0;
+      if (!(in >> v) || v < 0 || v > 255) return fail("DBoW2 text: bad descriptor on line " + std::to_string(line));
+      byte = static_cast<std::uint8_t>(v);
+    }
+    double weight = 0.0;
+    if (!(in >> weight)) return fail("DBoW2 text: bad weight on line " + std::to_string(line));
+    if (parent < 0) return fail("DBoW2 text: negative parent on line " + std::to_string(line));
+    n.parent = static_cast<NodeId>(parent);
+    n.weight = static_cast<float>(weight);
+    nodes.push_back(n);
+  }
+  if (!in.eof()) return fail("DBoW2 text: unreadable line " + std::to_string(line + 1));
+  Vocabulary vocab;
+  const std::string problem = vocab.Assign(k, levels, std::move(nodes));
+  if (!problem.empty()) return fail("DBoW2 text: invalid tree: " + problem);
+  return vocab;
+}
+
+std::optional<Vocabulary> ImportDbow2TextFile(const std::string& path, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    if (error) *error = path + ": cannot open";
+    return std::nullopt;
+  }
+  std::string problem;
+  auto vocab = ImportDbow2TextVocabulary(in, &problem);
   if (!vocab && error) *error = path + ": " + problem;
   return vocab;
 }

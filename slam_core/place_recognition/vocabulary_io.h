@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <istream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,5 +34,11 @@ std::optional<Vocabulary> DeserializeVocabulary(const std::uint8_t* data, std::s
 std::string SaveVocabularyFile(const Vocabulary& vocabulary, const std::string& path);
 /// Reads a vocabulary file; nullopt and *error naming the file on failure.
 std::optional<Vocabulary> LoadVocabularyFile(const std::string& path, std::string* error);
+
+/// Imports the DBoW2 text format of ORB-SLAM (ORBvoc.txt: "k L scoring weighting", then per
+/// node "parent is_leaf d0 .. d31 weight"). Only TF-IDF weighting and L1 scoring are accepted.
+/// Word ids equal DBoW2's, so bags of words are compatible with ORB-SLAM's.
+std::optional<Vocabulary> ImportDbow2TextVocabulary(std::istream& in, std::string* error);
+std::optional<Vocabulary> ImportDbow2TextFile(const std::string& path, std::string* error);
 
 }  // namespace ccm

@@ -3,6 +3,7 @@
 //   ccm_vocab train --sim hall3 --sim repeated --out FILE --levels 5 --max-images 300
 //   ccm_vocab info FILE
 //   ccm_vocab query --vocab FILE --images a.png b.png c.png
+//   ccm_vocab convert --dbow2-text ORBvoc.txt --out orb.ccmvoc
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -44,6 +45,32 @@ struct TrainArgs {
   int features = 1000;
 };
 
+// Extracts the training descriptors from the dataset or the simulator; empty string or error.
+std::string CollectImages(const TrainArgs& args, std::vector<std::vector<ccm::OrbDescriptor>>* images) {
+  ccm::vocab::CollectOptions collect;
+  collect.max_images = args.max_images;
+  collect.orb.num_features = args.features;
+  ProgressLine line;
+  auto progress = [&line](std::int64_t done, std::int64_t total) {
+    if (!line.Due(done == total)) return;
+    std::fprintf(stderr, "\rextracting ORB: %lld / %lld images", static_cast<long long>(done),
+                 static_cast<long long>(total));
+  };
+  std::string error;
+  if (!args.sim.empty()) {
+    error = ccm::vocab::CollectSimDescriptors(args.sim, collect, images, progress);
+  } else {
+    const auto format = ccm::ParseDatasetFormat(args.format);
+    if (!format) return "unknown --format " + args.format + " (auto, euroc, tum, kitti)";
+    ccm::IoStatus status;
+    auto source = ccm::OpenDataset(args.dataset, *format, &status);
+    if (!source) return status.message();
+    error = ccm::vocab::CollectDescriptors(source.get(), collect, images, progress);
+  }
+  std::fprintf(stderr, "\n");
+  return error;
+}
+
 int Train(const TrainArgs& args) {
   if (args.dataset.empty() == args.sim.empty()) {
     std::fprintf(stderr, "train: give exactly one of --dataset or --sim\n");
@@ -54,35 +81,9 @@ int Train(const TrainArgs& args) {
     std::fprintf(stderr, "train: %s\n", problem.c_str());
     return 2;
   }
-  ccm::vocab::CollectOptions collect;
-  collect.max_images = args.max_images;
-  collect.orb.num_features = args.features;
   std::vector<std::vector<ccm::OrbDescriptor>> images;
   const auto t0 = Clock::now();
-  ProgressLine line;
-  auto progress = [&line](std::int64_t done, std::int64_t total) {
-    if (!line.Due(done == total)) return;
-    std::fprintf(stderr, "\rextracting ORB: %lld / %lld images", static_cast<long long>(done),
-                 static_cast<long long>(total));
-  };
-  std::string error;
-  if (!args.sim.empty()) {
-    error = ccm::vocab::CollectSimDescriptors(args.sim, collect, &images, progress);
-  } else {
-    const auto format = ccm::ParseDatasetFormat(args.format);
-    if (!format) {
-      std::fprintf(stderr, "train: unknown --format %s (auto, euroc, tum, kitti)\n", args.format.c_str());
-      return 2;
-    }
-    ccm::IoStatus status;
-    auto source = ccm::OpenDataset(args.dataset, *format, &status);
-    if (!source) {
-      std::fprintf(stderr, "train: %s\n", status.message().c_str());
-      return 1;
-    }
-    error = ccm::vocab::CollectDescriptors(source.get(), collect, &images, progress);
-  }
-  std::fprintf(stderr, "\n");
+  std::string error = CollectImages(args, &images);
   if (!error.empty()) {
     std::fprintf(stderr, "train: %s\n", error.c_str());
     return 1;
@@ -92,6 +93,7 @@ int Train(const TrainArgs& args) {
   std::fprintf(stderr, "%zu images, %zu descriptors in %.1f s\n", images.size(), total, SecondsSince(t0));
   if (images.empty()) return 1;
   const auto t1 = Clock::now();
+  ProgressLine line;
   const ccm::Vocabulary vocab =
       ccm::Vocabulary::Train(images, args.vocab, [&line](const ccm::TrainingProgress& p) {
         if (!line.Due(p.fraction >= 1.0)) return;
@@ -105,6 +107,23 @@ int Train(const TrainArgs& args) {
     return 1;
   }
   std::printf("wrote %s\n", args.out.c_str());
+  return 0;
+}
+
+int Convert(const std::string& in, const std::string& out) {
+  std::string error;
+  auto vocab = ccm::ImportDbow2TextFile(in, &error);
+  if (!vocab) {
+    std::fprintf(stderr, "convert: %s\n", error.c_str());
+    return 1;
+  }
+  error = ccm::SaveVocabularyFile(*vocab, out);
+  if (!error.empty()) {
+    std::fprintf(stderr, "convert: %s\n", error.c_str());
+    return 1;
+  }
+  std::printf("wrote %s (k=%d L=%d, %zu words)\n", out.c_str(), vocab->branching(), vocab->levels(),
+              vocab->num_words());
   return 0;
 }
 
@@ -208,8 +227,14 @@ int main(int argc, char** argv) {
   q->add_option("--images", query_images, "images to compare")->required();
   q->add_option("--features", query_features, "ORB features per image")->capture_default_str();
 
+  std::string convert_in, convert_out;
+  auto* c = app.add_subcommand("convert", "import a DBoW2 text vocabulary (ORB-SLAM's ORBvoc.txt)");
+  c->add_option("--dbow2-text", convert_in, "DBoW2 text vocabulary")->required();
+  c->add_option("--out", convert_out, "output vocabulary file")->required();
+
   CLI11_PARSE(app, argc, argv);
   if (*t) return Train(train);
+  if (*c) return Convert(convert_in, convert_out);
   if (*i) return Info(info_path);
   return Query(query_vocab, query_images, query_features);
 }

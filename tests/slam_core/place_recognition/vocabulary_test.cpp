@@ -6,6 +6,7 @@
 #include <fstream>
 #include <random>
 #include <set>
+#include <sstream>
 
 #include "slam_core/place_recognition/vocabulary.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
@@ -197,6 +198,38 @@ TEST(VocabularyIoTest, RoundTripAndCorruption) {
   EXPECT_FALSE(LoadVocabularyFile(path + ".missing", &error));
   EXPECT_NE(error.find("cannot open"), std::string::npos);
   std::remove(path.c_str());
+}
+
+TEST(VocabularyIoTest, ImportsDbow2Text) {
+  // k=2, L=2: two inner nodes with two leaves each (ORB-SLAM's ORBvoc.txt layout).
+  std::string text = "2 2 0 0\n";
+  auto line = [](int parent, int leaf, int fill, double weight) {
+    std::string l = std::to_string(parent) + " " + std::to_string(leaf);
+    for (int i = 0; i < 32; ++i) l += " " + std::to_string(fill);
+    return l + " " + std::to_string(weight) + "\n";
+  };
+  text += line(0, 0, 0, 0) + line(0, 0, 255, 0);
+  text += line(1, 1, 0, 1.5) + line(1, 1, 15, 2.5) + line(2, 1, 240, 3.5) + line(2, 1, 255, 4.5);
+  std::istringstream in(text);
+  std::string error;
+  auto vocab = ImportDbow2TextVocabulary(in, &error);
+  ASSERT_TRUE(vocab) << error;
+  EXPECT_EQ(vocab->num_words(), 4u);
+  EXPECT_EQ(vocab->branching(), 2);
+  OrbDescriptor d;
+  d.fill(255);
+  const WordId w = vocab->Transform(d);
+  EXPECT_EQ(w, 3u);
+  EXPECT_FLOAT_EQ(vocab->WordWeight(w), 4.5f);
+  d.fill(14);
+  EXPECT_EQ(vocab->Transform(d), 1u);
+  // Unsupported scoring and broken lines are reported.
+  std::istringstream bad_scoring("10 6 1 0\n");
+  EXPECT_FALSE(ImportDbow2TextVocabulary(bad_scoring, &error));
+  EXPECT_NE(error.find("scoring"), std::string::npos);
+  std::istringstream truncated("2 2 0 0\n0 0 1 2 3\n");
+  EXPECT_FALSE(ImportDbow2TextVocabulary(truncated, &error));
+  EXPECT_NE(error.find("line 2"), std::string::npos) << error;
 }
 
 }  // namespace
