@@ -71,7 +71,7 @@ struct VerificationOptions {
   int support_grid = 4;
   int support_min_points = 8;
   double support_min_match_ratio = 0.2;
-  double min_spatial_support = 0.6;  ///< reject below this, in [0, 1] (0 disables)
+  double min_spatial_support = 0.8;  ///< reject below this, in [0, 1] (0 disables)
   std::string Validate() const;
 };
 

@@ -160,6 +160,30 @@ TEST(SimPlaceRecognitionTest, RepeatedStructuresNoFalsePositives) {
   EXPECT_GT(v.correct, 0);  // real revisits are still found
 }
 
+// Every keyframe pair of `repeated` whose poses differ by one or more crate spacings (5 m
+// along x) but otherwise match: the views show identical objects in different places.
+TEST(SimPlaceRecognitionTest, RepeatedAliasedPairsRejected) {
+  auto s = MakeSim("repeated");
+  Scene scene = BuildScene(*s, 12, {1.0, 1.4});
+  int pairs = 0;
+  VerifyStats verify;
+  for (const auto& q : scene.kfs) {
+    for (const auto& c : scene.kfs) {
+      bool aliased = false;
+      for (double shift : {-15.0, -10.0, -5.0, 5.0, 10.0, 15.0}) {
+        const SE3 shifted(c.world_from_cam.rotation(), c.world_from_cam.translation() + Eigen::Vector3d(shift, 0, 0));
+        aliased |= SamePlace(q.world_from_cam, shifted, 0.7, 30.0);
+      }
+      if (!aliased || SamePlace(q.world_from_cam, c.world_from_cam, 3.0, 90.0)) continue;
+      ++pairs;
+      VerifyAndCount(c, q, &verify);
+    }
+  }
+  std::printf("repeated aliased pairs: %d, accepted %d, wrong %d\n", pairs, verify.accepted, verify.wrong);
+  EXPECT_GE(pairs, 20);
+  EXPECT_EQ(verify.wrong, 0);
+}
+
 // Database from the pinhole agent; queries from the same flight seen by another camera,
 // taken between the database keyframes.
 void RunCrossCamera(const CameraIntrinsics& camera, const char* label) {
