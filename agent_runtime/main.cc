@@ -1,6 +1,8 @@
-// ccm_agent: the collaborative SLAM agent binary. This version runs the communication
-// module; `--link-demo N` streams N synthetic full keyframes to the server through the real
-// protocol (acks, resends, status) so links and QoS can be checked before the VO exists.
+// ccm_agent: the collaborative SLAM agent binary.
+//  * `--standalone`: monocular VO without DDS on a dataset or a simulated agent; writes
+//    trajectories (see agent_runtime/standalone_runner.h).
+//  * `--link-demo N`: streams N synthetic full keyframes to the server through the real
+//    protocol (acks, resends, status) so links and QoS can be checked.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -10,12 +12,17 @@
 #include <thread>
 
 #include "agent_runtime/agent_comm.h"
+#include "agent_runtime/standalone_runner.h"
 #include "runtime_common/logging.h"
 #include "runtime_common/synthetic_msgs.h"
 
 namespace {
 std::atomic<bool> g_stop{false};
-void OnSignal(int) { g_stop = true; }
+volatile bool g_stop_flag = false;  // same flag for the standalone runner
+void OnSignal(int) {
+  g_stop = true;
+  g_stop_flag = true;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -37,6 +44,19 @@ int main(int argc, char** argv) {
   app.add_option("--drain", drain_s, "link demo: wait this long for the last acks [s]")->capture_default_str();
   app.add_option("--drop", session.fault.drop_probability, "fault injection: drop probability of received datagrams");
   app.add_option("--delay-ms", session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
+  bool standalone = false;
+  agent::StandaloneOptions sa;
+  auto* sa_group = app.add_option_group("standalone", "VO without a server (--standalone)");
+  sa_group->add_flag("--standalone", standalone, "run the VO without DDS on --dataset or --sim");
+  sa_group->add_option("--dataset", sa.dataset, "dataset folder (EuRoC, TUM RGB-D or KITTI odometry)");
+  sa_group->add_option("--format", sa.format, "dataset format: auto, euroc, tum, kitti")->capture_default_str();
+  sa_group->add_option("--calibration", sa.calibration, "camera calibration YAML overriding the dataset's");
+  sa_group->add_option("--sim", sa.sim_scenario, "fly a simulated agent of this scenario (hall3, disjoint2, repeated, FILE)");
+  sa_group->add_option("--sim-agent", sa.sim_agent, "agent index in the scenario")->capture_default_str();
+  sa_group->add_option("--trajectory", sa.trajectory_out, "write the per-frame trajectory (TUM format)");
+  sa_group->add_option("--keyframes", sa.keyframes_out, "write the keyframe trajectory (TUM format)");
+  sa_group->add_option("--rate", sa.rate, "playback: max, realtime or a speed factor")->capture_default_str();
+  sa_group->add_option("--max-frames", sa.max_frames, "stop after N frames (-1: all)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   std::string error;
@@ -61,6 +81,14 @@ int main(int argc, char** argv) {
   if (!rt::SetupLogging(config.log_level, &error)) {
     std::cerr << "error: " << error << "\n";
     return 2;
+  }
+  if (standalone) {
+    std::signal(SIGINT, OnSignal);
+    std::signal(SIGTERM, OnSignal);
+    sa.agent_id = config.agent_id;
+    sa.vo.bound.max_keyframes = config.max_keyframes;
+    sa.vo.bound.max_unacked_buffer = config.buffer_keyframes;
+    return agent::RunStandalone(sa, &g_stop_flag);
   }
   if (session.fault.drop_probability == 0.0 && session.fault.delay_ms == 0.0) {
     auto env = rt::FaultOptions::FromEnvironment(&error);

@@ -72,7 +72,13 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
   init_options.min_triangulated = o.init_min_map_points;
   init_options.min_parallax_deg = o.init_min_parallax_deg;
   init_options.min_homography_ratio = o.init_min_homography_ratio;
-  const solvers::TwoViewInitResult two_view = solvers::InitializeTwoView(b1, b2, init_options);
+  solvers::TwoViewInitResult two_view = solvers::InitializeTwoView(b1, b2, init_options);
+  if (!two_view.ok() && o.init_fallback_homography_ratio < o.init_min_homography_ratio &&
+      two_view.homography_ratio >= o.init_fallback_homography_ratio) {
+    init_options.min_homography_ratio = o.init_fallback_homography_ratio;
+    init_options.min_parallax_deg = std::max(o.init_min_parallax_deg, o.init_homography_min_parallax_deg);
+    two_view = solvers::InitializeTwoView(b1, b2, init_options);
+  }
   if (!two_view.ok() || two_view.num_triangulated < o.init_min_map_points) return std::nullopt;
 
   InitializationResult r;

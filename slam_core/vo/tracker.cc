@@ -66,6 +66,11 @@ TrackingResult Tracker::Track(VoFrame frame) {
     }
     frame.DiscardOutliers();
     last_frame_ = std::move(frame);
+  } else if (map_->num_keyframes() <= static_cast<size_t>(shared_->options.reset_if_lost_below_keyframes)) {
+    // Lost right after initialization: the initial map was probably wrong (ORB-SLAM
+    // resets here too). Start over instead of relocalizing against it.
+    ResetToInitialization();
+    ++resets_;
   } else {
     state_ = TrackingState::kLost;
     velocity_.reset();
@@ -93,6 +98,11 @@ void Tracker::OnInitialized(const InitializationResult& init) {
 void Tracker::StartNewSegment() {
   // Relocalization kept failing: keep flying on a new local map; the server can merge
   // the segments later through place recognition.
+  ResetToInitialization();
+  ++segments_started_;
+}
+
+void Tracker::ResetToInitialization() {
   state_ = TrackingState::kInitializing;
   initializer_.Reset();
   map_.reset();
@@ -100,7 +110,6 @@ void Tracker::StartNewSegment() {
   last_frame_.reset();
   velocity_.reset();
   lost_frames_ = 0;
-  ++segments_started_;
 }
 
 int Tracker::OptimizeFramePose(VoFrame* f) {

@@ -47,6 +47,7 @@ class Tracker {
   KeyframeId reference_kf() const { return reference_kf_ ? reference_kf_->id() : KeyframeId::Invalid(); }
   const std::shared_ptr<KeyFrame>& reference_keyframe() const { return reference_kf_; }
   int segments_started() const { return segments_started_; }
+  int resets() const { return resets_; }
 
  private:
   bool TrackWithMotionModel(VoFrame* f);
@@ -57,6 +58,7 @@ class Tracker {
   bool NeedNewKeyframe(const VoFrame& f, int inliers) const;
   void CreateKeyframe(const VoFrame& f);
   void StartNewSegment();
+  void ResetToInitialization();
   void OnInitialized(const InitializationResult& init);
   std::vector<std::shared_ptr<KeyFrame>> LocalKeyframes(const VoFrame& f) const;
 
@@ -74,6 +76,7 @@ class Tracker {
   int64_t last_reloc_frame_index_ = -1000;
   int lost_frames_ = 0;
   int segments_started_ = 0;
+  int resets_ = 0;  ///< initializations discarded because tracking failed right after
 };
 
 }  // namespace ccm

@@ -9,6 +9,9 @@ std::string VoOptions::Validate() const {
   if (init_num_features < orb.num_features) return "init_num_features must be >= orb.num_features";
   if (init_min_matches < 8) return "init_min_matches must be >= 8";
   if (init_min_homography_ratio <= 0 || init_min_homography_ratio > 1) return "init_min_homography_ratio must be in (0, 1]";
+  if (init_fallback_homography_ratio <= 0 || init_fallback_homography_ratio > 1) {
+    return "init_fallback_homography_ratio must be in (0, 1]";
+  }
   if (init_window_px <= 0) return "init_window_px must be > 0";
   if (init_max_frames < 1) return "init_max_frames must be >= 1";
   if (projection_radius_px <= 0) return "projection_radius_px must be > 0";

@@ -28,6 +28,13 @@ struct VoOptions {
   /// homography's two decompositions were hard to tell apart and 0.40 picked a motion
   /// 80 deg off, so the essential matrix is preferred unless the view is clearly planar.
   double init_min_homography_ratio = 0.7;
+  /// Optional second chance for (near-)planar views when the essential matrix failed:
+  /// the homography is accepted from this ratio on, but only with at least
+  /// init_homography_min_parallax_deg. Off by default (1.0): on the simulator even 3 deg
+  /// gave a wrong decomposition. Road scenes (KITTI) work with
+  /// init_min_homography_ratio = 0.45 instead.
+  double init_fallback_homography_ratio = 1.0;
+  double init_homography_min_parallax_deg = 3.0;
 
   // Tracking.
   double projection_radius_px = 15.0;  ///< motion-model search radius at level 0
@@ -47,6 +54,7 @@ struct VoOptions {
   // Relocalization / new map segment.
   int reloc_min_matches = 30;
   int lost_frames_before_new_segment = 40;  ///< failed relocalizations before a new segment
+  int reset_if_lost_below_keyframes = 5;    ///< lost with <= this many KFs: re-initialize
 
   // Local mapping.
   int triangulation_neighbours = 10;   ///< covisible KFs searched for new points

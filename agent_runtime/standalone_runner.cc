@@ -1,0 +1,186 @@
+#include "agent_runtime/standalone_runner.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "slam_core/io/dataset.h"
+#include "slam_core/io/trajectory_io.h"
+#include "slam_core/vo/agent_vo.h"
+#include "tests/sim/sim_frame_source.h"
+#include "tests/sim/simulation.h"
+
+namespace ccm::agent {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::unique_ptr<FrameSource> OpenSource(const StandaloneOptions& o, std::string* error) {
+  if (!o.sim_scenario.empty()) {
+    const auto scenario = sim::LoadScenario(o.sim_scenario, error);
+    if (!scenario) return nullptr;
+    std::shared_ptr<const sim::Simulation> simulation(sim::Simulation::Create(*scenario, error));
+    if (!simulation) return nullptr;
+    if (o.sim_agent < 0 || o.sim_agent >= simulation->num_agents()) {
+      *error = "scenario '" + o.sim_scenario + "' has " + std::to_string(simulation->num_agents()) +
+               " agents; --sim-agent " + std::to_string(o.sim_agent) + " does not exist";
+      return nullptr;
+    }
+    return std::make_unique<sim::SimFrameSource>(simulation, o.sim_agent);
+  }
+  DatasetOptions d;
+  d.path = o.dataset;
+  d.calibration_path = o.calibration;
+  const auto format = ParseDatasetFormat(o.format);
+  d.format = *format;
+  IoStatus status;
+  auto source = OpenDataset(d, &status);
+  if (!source) *error = status.message();
+  return source;
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+bool WriteTum(const std::string& path, const std::vector<KeyframePose>& poses, std::string* error) {
+  Trajectory t;
+  for (const auto& p : poses) t.push_back({p.stamp_ns, p.world_from_cam});
+  std::sort(t.begin(), t.end(), [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; });
+  const IoStatus s = WriteTumTrajectory(path, t);
+  if (!s.ok()) *error = s.message();
+  return s.ok();
+}
+
+// Sleeps so that frames are consumed at their recorded rate times `speed`.
+class Pacer {
+ public:
+  explicit Pacer(double speed) : speed_(speed) {}
+  void Wait(int64_t stamp_ns) {
+    if (speed_ <= 0) return;
+    if (!started_) {
+      started_ = true;
+      first_ns_ = stamp_ns;
+      start_ = Clock::now();
+      return;
+    }
+    const double media_s = (stamp_ns - first_ns_) * 1e-9 / speed_;
+    std::this_thread::sleep_until(start_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(media_s)));
+  }
+
+ private:
+  double speed_;
+  bool started_ = false;
+  int64_t first_ns_ = 0;
+  Clock::time_point start_;
+};
+
+}  // namespace
+
+std::string StandaloneOptions::Validate() const {
+  if (dataset.empty() == sim_scenario.empty()) return "give exactly one of --dataset DIR or --sim SCENARIO";
+  if (!ParseDatasetFormat(format)) return "--format must be auto, euroc, tum or kitti, got '" + format + "'";
+  if (rate != "max" && rate != "realtime") {
+    try {
+      if (std::stod(rate) <= 0) return "--rate factor must be > 0";
+    } catch (...) {
+      return "--rate must be max, realtime or a speed factor (e.g. 0.5), got '" + rate + "'";
+    }
+  }
+  if (agent_id < 1 || agent_id > 65535) return "agent id must be in 1..65535";
+  return vo.Validate();
+}
+
+int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
+  if (const std::string problem = o.Validate(); !problem.empty()) {
+    std::cerr << "error: " << problem << "\n";
+    return 2;
+  }
+  std::string error;
+  auto source = OpenSource(o, &error);
+  if (!source) {
+    std::cerr << "error: " << error << "\n";
+    return 2;
+  }
+  std::shared_ptr<const CameraModel> camera(MakeCamera(source->intrinsics()));
+  if (!camera) {
+    std::cerr << "error: invalid camera calibration: " << ValidateIntrinsics(source->intrinsics()) << "\n";
+    return 2;
+  }
+  AckAll acks;  // no server: every keyframe may leave the local map once older than N
+  AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false);
+  std::atomic<bool> mapping_run{true};
+  std::thread mapping([&] {
+    while (mapping_run) vo.RunMappingOnce(std::chrono::milliseconds(100));
+  });
+  Pacer pacer(o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
+  const auto start = Clock::now();
+  auto last_progress = start;
+  int64_t frames = 0, tracked = 0;
+  TrackingResult last;
+  spdlog::info("standalone VO on {} ({} frames, {}x{} {})", o.sim_scenario.empty() ? o.dataset : "sim:" + o.sim_scenario,
+               source->size(), camera->width(), camera->height(), CameraTypeName(camera->type()));
+  while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
+    auto frame = source->Next();
+    if (!frame) break;
+    pacer.Wait(frame->stamp_ns);
+    last = vo.TrackFrame(*frame);
+    ++frames;
+    tracked += last.world_from_cam.has_value();
+    if (Clock::now() - last_progress > std::chrono::duration<double>(o.progress_period_s)) {
+      const double el = std::chrono::duration<double>(Clock::now() - start).count();
+      const auto m = vo.map();
+      spdlog::info("frames {}/{} ({:.1f} fps) state {} tracked {:.1f}% KFs in map {} points {}", frames, source->size(),
+                   frames / el, TrackingStateName(last.state), 100.0 * tracked / frames, m ? m->num_keyframes() : 0,
+                   m ? m->num_map_points() : 0);
+      last_progress = Clock::now();
+    }
+  }
+  mapping_run = false;
+  vo.Stop();
+  mapping.join();
+  vo.DrainMapping();
+  if (!source->error().empty()) {
+    std::cerr << "error: " << source->error() << "\n";
+    return 1;
+  }
+  const AgentVoStats s = vo.stats();
+  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  if (!o.trajectory_out.empty() && !WriteTum(o.trajectory_out, vo.FrameTrajectory(), &error)) {
+    std::cerr << "error: " << error << "\n";
+    return 1;
+  }
+  if (!o.keyframes_out.empty() && !WriteTum(o.keyframes_out, vo.KeyframeTrajectory(), &error)) {
+    std::cerr << "error: " << error << "\n";
+    return 1;
+  }
+  spdlog::info("done: {} frames in {:.1f} s, tracked {:.1f}%, {} keyframes ({} culled, {} lost), {} segments", frames,
+               wall_s, frames ? 100.0 * tracked / frames : 0.0, s.keyframes_created, s.mapping.keyframes_culled,
+               s.trim.removed_lost, s.segments);
+  spdlog::info("tracking ms/frame: median {:.1f} p95 {:.1f}; local mapping ms/keyframe: median {:.1f} p95 {:.1f}",
+               Percentile(s.tracking_ms, 0.5), Percentile(s.tracking_ms, 0.95), Percentile(s.mapping_ms, 0.5),
+               Percentile(s.mapping_ms, 0.95));
+  const nlohmann::json summary = {{"frames", frames},
+                                  {"tracked", tracked},
+                                  {"keyframes_created", s.keyframes_created},
+                                  {"keyframes_in_map", s.keyframes_in_map},
+                                  {"map_points_in_map", s.map_points_in_map},
+                                  {"keyframes_lost", s.trim.removed_lost},
+                                  {"segments", s.segments},
+                                  {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
+                                  {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},
+                                  {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},
+                                  {"mapping_ms_p95", Percentile(s.mapping_ms, 0.95)},
+                                  {"wall_s", wall_s}};
+  std::cout << summary.dump() << std::endl;
+  return 0;
+}
+
+}  // namespace ccm::agent

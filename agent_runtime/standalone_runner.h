@@ -1,0 +1,35 @@
+// `ccm_agent --standalone`: runs the whole agent VO without DDS on a dataset folder
+// (EuRoC / TUM / KITTI) or a simulated agent, writes the per-frame and keyframe
+// trajectories (TUM format) and prints progress and timing statistics. Owns the two VO
+// threads: tracking runs on the caller's thread, local mapping on a thread started and
+// joined by Run().
+#pragma once
+
+#include <string>
+
+#include "slam_core/vo/vo_options.h"
+
+namespace ccm::agent {
+
+struct StandaloneOptions {
+  std::string dataset;           ///< dataset folder (empty when sim_scenario is set)
+  std::string format = "auto";   ///< auto, euroc, tum, kitti
+  std::string calibration;       ///< optional calibration YAML override
+  std::string sim_scenario;      ///< built-in scenario name or YAML file
+  int sim_agent = 0;             ///< agent index within the scenario
+  std::string trajectory_out;    ///< per-frame trajectory (TUM); empty: not written
+  std::string keyframes_out;     ///< keyframe trajectory (TUM); empty: not written
+  std::string rate = "max";      ///< "max", "realtime" or a speed factor such as "0.5"
+  int64_t max_frames = -1;       ///< stop after this many frames (-1: all)
+  int agent_id = 1;
+  double progress_period_s = 2.0;
+  VoOptions vo;
+
+  std::string Validate() const;
+};
+
+/// Runs to the end of the input (or until *stop becomes true). Returns the process exit
+/// code: 0 on success, 1 on a runtime failure, 2 on bad input; prints a JSON summary.
+int RunStandalone(const StandaloneOptions& options, const volatile bool* stop);
+
+}  // namespace ccm::agent

@@ -1,0 +1,91 @@
+// The agent VO on the real / photorealistic excerpts in ../shared/data (not part of the
+// repository: research licences). Skipped with a message when the data is absent.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "slam_core/eval/evaluator.h"
+#include "slam_core/io/dataset.h"
+#include "slam_core/vo/agent_vo.h"
+
+namespace ccm {
+namespace {
+
+struct RealRun {
+  int64_t frames = 0, first_tracked = -1, tracked_after_init = 0, frames_after_init = 0;
+  double ate_m = -1, path_m = 0;
+  int segments = 0;
+};
+
+RealRun RunOn(const std::string& path, const VoOptions& options, const std::string& gt_file = "") {
+  RealRun run;
+  IoStatus status;
+  DatasetOptions d;
+  d.path = path;
+  if (!gt_file.empty()) d.ground_truth_path = path + "/" + gt_file;
+  auto source = OpenDataset(d, &status);
+  EXPECT_NE(source, nullptr) << status.message();
+  if (!source) return run;
+  std::shared_ptr<const CameraModel> camera(MakeCamera(source->intrinsics()));
+  AckAll acks;
+  AgentVo vo(1, camera, options, &acks, /*synchronous_mapping=*/true);
+  Trajectory gt, est;
+  while (auto frame = source->Next()) {
+    const TrackingResult r = vo.TrackFrame(*frame);
+    if (frame->world_from_cam_gt) gt.push_back({frame->stamp_ns, *frame->world_from_cam_gt});
+    if (r.world_from_cam && run.first_tracked < 0) run.first_tracked = run.frames;
+    if (run.first_tracked >= 0) {
+      ++run.frames_after_init;
+      run.tracked_after_init += r.world_from_cam.has_value();
+    }
+    ++run.frames;
+  }
+  for (const KeyframePose& p : vo.FrameTrajectory()) est.push_back({p.stamp_ns, p.world_from_cam});
+  for (size_t i = 1; i < gt.size(); ++i) {
+    run.path_m += (gt[i].world_from_cam.translation() - gt[i - 1].world_from_cam.translation()).norm();
+  }
+  run.segments = vo.stats().segments;
+  EvalReport report;
+  std::string error;
+  if (Evaluate({{"agent", gt, est}}, EvalOptions{}, &report, &error)) run.ate_m = report.agents[0].ate_m.rmse;
+  EXPECT_TRUE(error.empty()) << error;
+  return run;
+}
+
+std::string DataDir(const std::string& name) {
+  for (const char* base : {"../shared/data/", "../../shared/data/", "../../../shared/data/", "/work/shared/data/"}) {
+    const std::string p = std::string(CCM_SOURCE_DIR) + "/" + base + name;
+    if (std::filesystem::exists(p)) return p;
+    if (std::filesystem::exists(std::string(base) + name)) return std::string(base) + name;
+  }
+  return "";
+}
+
+TEST(VoRealData, Kitti07Excerpt) {
+  const std::string dir = DataDir("kitti07_first160");
+  if (dir.empty()) GTEST_SKIP() << "../shared/data/kitti07_first160 not found";
+  VoOptions o;
+  // Road scenes are close to planar near the camera: take ORB-SLAM's homography ratio.
+  o.init_min_homography_ratio = 0.45;
+  const RealRun r = RunOn(dir, o, "poses_07_first160_kitti.txt");
+  ASSERT_GE(r.first_tracked, 0) << "never initialized";
+  EXPECT_LT(r.first_tracked, 20);
+  EXPECT_GE(static_cast<double>(r.tracked_after_init) / r.frames_after_init, 0.90);
+  EXPECT_EQ(r.segments, 1);
+  ASSERT_GT(r.ate_m, 0);
+  EXPECT_LT(r.ate_m, 0.01 * r.path_m) << "ATE " << r.ate_m << " m over " << r.path_m << " m";
+}
+
+TEST(VoRealData, NewTsukubaExcerpt) {
+  const std::string dir = DataDir("ntsd150_euroc");
+  if (dir.empty()) GTEST_SKIP() << "../shared/data/ntsd150_euroc not found";
+  const RealRun r = RunOn(dir, VoOptions{});
+  ASSERT_GE(r.first_tracked, 0) << "never initialized";
+  EXPECT_GE(static_cast<double>(r.tracked_after_init) / r.frames_after_init, 0.95);
+  EXPECT_EQ(r.segments, 1);
+  ASSERT_GT(r.ate_m, 0);
+  EXPECT_LT(r.ate_m, 0.01 * r.path_m) << "ATE " << r.ate_m << " m over " << r.path_m << " m";
+}
+
+}  // namespace
+}  // namespace ccm
