@@ -57,7 +57,7 @@ Projection GuidedSearch(const VerificationView& from, const VerificationView& to
   const double focal_ratio = to.camera->intrinsics().fx / from.camera->intrinsics().fx;
   const double log_sf = std::log(to.pyramid.scale_factor);
   for (int i = 0; i < static_cast<int>(from.features.size()); ++i) {
-    if (!from.HasPoint(i)) continue;
+    if (!from.HasPoint(i) || from.points_cam[i].norm() < 1e-9) continue;
     const Eigen::Vector3d p = to_from_from * from.points_cam[i];
     Eigen::Vector2d uv;
     if (p.z() <= 0.0 || !to.camera->Project(p, &uv) || !to.camera->InImage(uv)) continue;
