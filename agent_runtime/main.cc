@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   sa_group->add_option("--sim-agent", sa.sim_agent, "agent index in the scenario")->capture_default_str();
   sa_group->add_option("--trajectory", sa.trajectory_out, "write the per-frame trajectory (TUM format)");
   sa_group->add_option("--keyframes", sa.keyframes_out, "write the keyframe trajectory (TUM format)");
+  sa_group->add_option("--ground-truth", sa.ground_truth_out, "write the input's ground truth of the processed frames (TUM)");
   sa_group->add_option("--rate", sa.rate, "playback: max, realtime or a speed factor")->capture_default_str();
   sa_group->add_option("--max-frames", sa.max_frames, "stop after N frames (-1: all)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);

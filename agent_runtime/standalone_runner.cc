@@ -125,12 +125,14 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
   auto last_progress = start;
   int64_t frames = 0, tracked = 0;
   TrackingResult last;
+  std::vector<KeyframePose> ground_truth;
   spdlog::info("standalone VO on {} ({} frames, {}x{} {})", o.sim_scenario.empty() ? o.dataset : "sim:" + o.sim_scenario,
                source->size(), camera->width(), camera->height(), CameraTypeName(camera->type()));
   while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
     auto frame = source->Next();
     if (!frame) break;
     pacer.Wait(frame->stamp_ns);
+    if (frame->world_from_cam_gt) ground_truth.push_back({KeyframeId(), MapId(), frame->stamp_ns, *frame->world_from_cam_gt});
     last = vo.TrackFrame(*frame);
     ++frames;
     tracked += last.world_from_cam.has_value();
@@ -154,6 +156,10 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
   const AgentVoStats s = vo.stats();
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   if (!o.trajectory_out.empty() && !WriteTum(o.trajectory_out, vo.FrameTrajectory(), &error)) {
+    std::cerr << "error: " << error << "\n";
+    return 1;
+  }
+  if (!o.ground_truth_out.empty() && !WriteTum(o.ground_truth_out, ground_truth, &error)) {
     std::cerr << "error: " << error << "\n";
     return 1;
   }

@@ -19,6 +19,7 @@ struct StandaloneOptions {
   int sim_agent = 0;             ///< agent index within the scenario
   std::string trajectory_out;    ///< per-frame trajectory (TUM); empty: not written
   std::string keyframes_out;     ///< keyframe trajectory (TUM); empty: not written
+  std::string ground_truth_out;  ///< ground truth of the processed frames (TUM), if the source has it
   std::string rate = "max";      ///< "max", "realtime" or a speed factor such as "0.5"
   int64_t max_frames = -1;       ///< stop after this many frames (-1: all)
   int agent_id = 1;

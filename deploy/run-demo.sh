@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
-# One command on a fresh Debian 12 machine: install dependencies, build, run the demo.
-# Current demo: one ccm_server and three ccm_agent processes on this host exchange full
-# keyframes through the real protocol (RELIABLE new data, BEST_EFFORT acks, resends) over
-# the wifi.xml QoS profile while every process loses 20% of its incoming datagrams and
-# delays the rest by 100 ms. The SLAM pipeline plugs into the same binaries as it lands.
+# One command on a fresh Debian 12 machine: install dependencies, build, run the demo on the
+# built-in synthetic multi-agent scenario "hall3" (3 drones in an indoor hall).
+#  1. Link: one ccm_server and three ccm_agent processes exchange full keyframes through the
+#     real protocol (RELIABLE new data, BEST_EFFORT acks, resends) over the wifi.xml QoS
+#     profile while every process loses 20% of its incoming datagrams and delays the rest
+#     by 100 ms.
+#  2. Onboard VO: each of the three agents flies its hall3 trajectory (frames rendered in
+#     process) with the monocular VO, standalone, and ccm_eval scores the trajectories
+#     against the simulator's ground truth (table + plot).
+# The server-side collaborative mapping (place recognition, fusion) is not wired in yet.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build}"
 "$ROOT/deploy/install-deps.sh"
-BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh" --target ccm_agent ccm_server
+BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh" --target ccm_agent ccm_server ccm_eval_cli
 BIN="$BUILD_DIR"
 QOS="$ROOT/qos_profiles/wifi.xml"
 DROP="${DEMO_DROP:-0.2}"
@@ -34,4 +39,24 @@ done
 wait "$server_pid" || status=1
 echo "[demo] server: $(grep '^{' "$OUT/server.log" | tail -1)"
 if [ $status -eq 0 ]; then echo "[demo] OK: every keyframe of every agent reached the server and was acknowledged"; fi
+
+FRAMES="${DEMO_FRAMES:-600}"
+echo "[demo] onboard VO: 3 hall3 agents, ${FRAMES} frames each (752x480, 20 Hz), standalone"
+vo_pids=()
+for a in 0 1 2; do
+  "$BIN/agent_runtime/ccm_agent" --standalone --sim hall3 --sim-agent "$a" --agent-id $((a + 1)) \
+    --max-frames "$FRAMES" --trajectory "$OUT/vo_agent$a.txt" --keyframes "$OUT/vo_agent${a}_kf.txt" \
+    --ground-truth "$OUT/gt_agent$a.txt" >"$OUT/vo_agent$a.log" 2>&1 &
+  vo_pids+=($!)
+done
+for a in 0 1 2; do
+  wait "${vo_pids[$a]}" || status=1
+  echo "[demo] agent $a VO: $(grep 'done:' "$OUT/vo_agent$a.log" | sed 's/.*done: //')"
+done
+# Each agent's VO has its own frame and scale: read the per-agent rows (the JOINT row needs a
+# common map frame, which server-side fusion will provide).
+"$BIN/tools/eval/ccm_eval" --gt "$OUT/gt_agent0.txt" --est "$OUT/vo_agent0.txt" \
+  --gt "$OUT/gt_agent1.txt" --est "$OUT/vo_agent1.txt" --gt "$OUT/gt_agent2.txt" --est "$OUT/vo_agent2.txt" \
+  --name agent0 --name agent1 --name agent2 --json "$OUT/vo_eval.json" --plot "$OUT/vo_eval.png" || status=1
+echo "[demo] trajectories, logs, vo_eval.json and the plot vo_eval.png are in $OUT"
 exit $status
