@@ -5,6 +5,7 @@
 #include <unordered_map>
 
 #include "slam_core/feature/keypoint_grid.h"
+#include "slam_core/place_recognition/sim3_refinement.h"
 
 namespace ccm {
 
@@ -147,8 +148,60 @@ std::string VerificationOptions::Validate() const {
   }
   if (p.empty() && (min_bow_matches < 3 || min_inliers < 3)) p = "min_bow_matches/min_inliers must be >= 3";
   if (p.empty() && refine_rounds < 0) p = "refine_rounds must be >= 0";
+  if (p.empty() && optimize) p = optimization.Validate();
   return p;
 }
+
+namespace {
+
+// Guided search both ways under `s`: fills the consistent matches, projected count and
+// spatial support of `r`.
+void SearchAndScore(const VerificationView& candidate, const VerificationView& query,
+                    const KeypointGrid& cand_grid, const KeypointGrid& query_grid, const Sim3& s,
+                    const VerificationOptions& options, VerificationResult* r) {
+  const Projection forward = GuidedSearch(candidate, query, query_grid, s, options.guided);
+  const Projection backward = GuidedSearch(query, candidate, cand_grid, s.inverse(), options.guided);
+  r->projected = forward.projected + backward.projected;
+  r->matches = ConsistentMatches(candidate, query, forward.match, backward.match);
+  r->total_matches = static_cast<int>(r->matches.size());
+  std::vector<bool> cand_matched(candidate.features.size(), false), query_matched(query.features.size(), false);
+  for (const auto& m : r->matches) {
+    cand_matched[m.index1] = true;
+    query_matched[m.index2] = true;
+  }
+  r->spatial_support = std::min(
+      SpatialSupport(forward, cand_matched, query.camera->width(), query.camera->height(), options),
+      SpatialSupport(backward, query_matched, candidate.camera->width(), candidate.camera->height(), options));
+}
+
+// Guided search, then RANSAC on the enlarged set (refine_rounds times), then the
+// reprojection optimisation; ends with a guided search under the final Sim(3).
+// Returns an empty string or the reason to reject.
+std::string RefineAndSearch(const VerificationView& candidate, const VerificationView& query, Sim3 s,
+                            const VerificationOptions& options, VerificationResult* r) {
+  const KeypointGrid query_grid(query.features, query.camera->width(), query.camera->height());
+  const KeypointGrid cand_grid(candidate.features, candidate.camera->width(), candidate.camera->height());
+  r->final_inliers = r->ransac_inliers;
+  for (int round = 0; round < options.refine_rounds; ++round) {
+    SearchAndScore(candidate, query, cand_grid, query_grid, s, options, r);
+    const solvers::Sim3Result refined = RunSim3(candidate, query, r->matches, options.sim3);
+    if (!refined.ok()) return "Sim(3) RANSAC on the guided matches failed";
+    s = refined.b_from_a;
+    r->final_inliers = refined.num_inliers;
+  }
+  if (options.optimize) {
+    if (options.refine_rounds == 0) SearchAndScore(candidate, query, cand_grid, query_grid, s, options, r);
+    const Sim3RefineResult optimized = RefineSim3(candidate, query, r->matches, s, options.optimization);
+    if (!optimized.ok) return "Sim(3) optimisation failed";
+    s = optimized.query_from_candidate;
+    r->final_inliers = optimized.num_inliers;
+  }
+  SearchAndScore(candidate, query, cand_grid, query_grid, s, options, r);
+  r->query_from_candidate = s;
+  return {};
+}
+
+}  // namespace
 
 VerificationResult VerifyPlace(const VerificationView& candidate, const VerificationView& query,
                                const VerificationOptions& options) {
@@ -166,54 +219,24 @@ VerificationResult VerifyPlace(const VerificationView& candidate, const Verifica
     r.reason = "too few BoW matches (" + std::to_string(r.bow_matches) + ")";
     return r;
   }
-  solvers::Sim3Result sim3 = RunSim3(candidate, query, bow, options.sim3);
+  const solvers::Sim3Result sim3 = RunSim3(candidate, query, bow, options.sim3);
   r.ransac_inliers = sim3.num_inliers;
   if (!sim3.ok() || sim3.num_inliers < options.min_inliers) {
     r.reason = "Sim(3) RANSAC failed: " + std::string(solvers::SolverStatusName(sim3.status)) + ", " +
                std::to_string(sim3.num_inliers) + " inliers";
     return r;
   }
-  const KeypointGrid query_grid(query.features, query.camera->width(), query.camera->height());
-  const KeypointGrid cand_grid(candidate.features, candidate.camera->width(), candidate.camera->height());
-  Sim3 s = sim3.b_from_a;
-  std::vector<FeatureMatch> matches;
-  for (int round = 0; round <= options.refine_rounds; ++round) {
-    const Projection forward = GuidedSearch(candidate, query, query_grid, s, options.guided);
-    const Projection backward = GuidedSearch(query, candidate, cand_grid, s.inverse(), options.guided);
-    r.projected = forward.projected + backward.projected;
-    matches = ConsistentMatches(candidate, query, forward.match, backward.match);
-    std::vector<bool> cand_matched(candidate.features.size(), false), query_matched(query.features.size(), false);
-    for (const auto& m : matches) {
-      cand_matched[m.index1] = true;
-      query_matched[m.index2] = true;
-    }
-    r.spatial_support = std::min(
-        SpatialSupport(forward, cand_matched, query.camera->width(), query.camera->height(), options),
-        SpatialSupport(backward, query_matched, candidate.camera->width(), candidate.camera->height(), options));
-    if (round == options.refine_rounds) break;
-    // Refinement: RANSAC + least squares on the enlarged 3D-3D set.
-    solvers::Sim3Result refined = RunSim3(candidate, query, matches, options.sim3);
-    if (!refined.ok()) break;
-    s = refined.b_from_a;
-    r.final_inliers = refined.num_inliers;
-  }
-  if (options.refine_rounds == 0) r.final_inliers = r.ransac_inliers;
-  r.query_from_candidate = s;
-  r.total_matches = static_cast<int>(matches.size());
-  r.matches = std::move(matches);
+  r.reason = RefineAndSearch(candidate, query, sim3.b_from_a, options, &r);
+  if (!r.reason.empty()) return r;
   if (r.final_inliers < options.min_inliers) {
     r.reason = "too few inliers after refinement (" + std::to_string(r.final_inliers) + ")";
-    return r;
-  }
-  if (r.total_matches < options.min_total_matches) {
+  } else if (r.total_matches < options.min_total_matches) {
     r.reason = "too few matches after guided search (" + std::to_string(r.total_matches) + ")";
-    return r;
-  }
-  if (r.spatial_support < options.min_spatial_support) {
+  } else if (r.spatial_support < options.min_spatial_support) {
     r.reason = "matches supported in too few image regions (" + std::to_string(r.spatial_support) + ")";
-    return r;
+  } else {
+    r.accepted = true;
   }
-  r.accepted = true;
   return r;
 }
 

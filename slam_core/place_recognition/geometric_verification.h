@@ -7,36 +7,17 @@
 // cameras all work. Stateless function; safe from any thread.
 #pragma once
 
-#include <Eigen/Core>
-#include <memory>
 #include <string>
 #include <vector>
 
-#include "slam_core/feature/orb_types.h"
-#include "slam_core/geometry/camera.h"
 #include "slam_core/geometry/sim3.h"
 #include "slam_core/matching/descriptor_matcher.h"
 #include "slam_core/matching/projection_matcher.h"
-#include "slam_core/place_recognition/bow_vector.h"
+#include "slam_core/place_recognition/sim3_refinement.h"
+#include "slam_core/place_recognition/verification_view.h"
 #include "slam_core/solvers/similarity.h"
 
 namespace ccm {
-
-/// One keyframe as seen by verification.
-struct VerificationView {
-  std::shared_ptr<const CameraModel> camera;
-  FrameFeatures features;            ///< keypoints (distorted pixels) + descriptors
-  ScalePyramid pyramid = ScalePyramid::Make(8, 1.2);
-  /// Per keypoint: its map point in THIS keyframe's camera frame, or NaN if it has none.
-  /// Each view may be in its own map's scale.
-  std::vector<Eigen::Vector3d> points_cam;
-  /// Direct index of the keypoints (Vocabulary::Transform with the same levels_up for both).
-  FeatureVector feature_vector;
-
-  bool HasPoint(int i) const { return points_cam[i].allFinite(); }
-  /// Empty if consistent, else the problem (sizes, missing camera).
-  std::string Validate() const;
-};
 
 struct VerificationOptions {
   DescriptorMatchOptions bow_match = [] {
@@ -66,6 +47,10 @@ struct VerificationOptions {
   int min_inliers = 20;            ///< CCM-SLAM: >= 20 Sim(3) inliers
   int min_total_matches = 40;      ///< CCM-SLAM: >= 40 matches after guided search
   int refine_rounds = 1;           ///< RANSAC + guided search repetitions on the enlarged set
+  /// Reprojection optimisation of the Sim(3) (sim3_refinement.h). Off by default: ~4x the
+  /// verification time and it lets slightly more aliased views through (docs/place-recognition.md).
+  bool optimize = false;
+  Sim3RefineOptions optimization;
   /// Spatial support (see VerificationResult::spatial_support): grid cells per image side,
   /// projected points a cell needs to be tested, matched share that supports it.
   int support_grid = 4;

@@ -21,6 +21,7 @@ std::vector<SimKeyframe> MakeSimKeyframes(const sim::Simulation& sim, int agent,
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<SimKeyframe> out;
   for (std::int64_t i = options.offset; i < sim.NumFrames(agent); i += options.stride) {
+    if (options.max_keyframes >= 0 && static_cast<int>(out.size()) >= options.max_keyframes) break;
     SimKeyframe kf;
     kf.agent = agent;
     kf.index = i;

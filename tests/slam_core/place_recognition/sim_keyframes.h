@@ -29,6 +29,7 @@ struct SimKeyframe {
 struct SimKeyframeOptions {
   std::int64_t stride = 16;          ///< every stride-th frame ...
   std::int64_t offset = 0;           ///< ... starting here
+  int max_keyframes = -1;            ///< at most this many (-1 = all)
   int num_features = 1000;
   double point_fraction = 0.6;       ///< keypoints that get a map point
   double depth_noise = 0.01;         ///< relative depth noise (1 sigma)

@@ -259,6 +259,7 @@ TEST(GeometricVerificationTest, RejectsInvalidInputAndUnrelatedViews) {
   auto s = MakeSim("disjoint2");
   SimKeyframeOptions o;
   o.stride = 600;
+  o.max_keyframes = 1;
   const auto a = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
   const auto b = MakeSimKeyframes(*s, 1, SimVocabulary(), o);
   ASSERT_FALSE(a.empty());
@@ -272,6 +273,44 @@ TEST(GeometricVerificationTest, RejectsInvalidInputAndUnrelatedViews) {
   EXPECT_NEAR(r.query_from_candidate.scale(), 1.0, 1e-3);
   EXPECT_LT(r.query_from_candidate.translation().norm(), 1e-3);
   EXPECT_GE(r.total_matches, 100);
+}
+
+TEST(GeometricVerificationTest, ReprojectionRefinementRecoversPerturbedSim3) {
+  auto s = MakeSim("hall3");
+  SimKeyframeOptions o;
+  o.stride = 10;
+  o.offset = 200;
+  o.max_keyframes = 2;
+  const auto a = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
+  o.map_scale = 2.0;
+  o.seed = 9;
+  const auto b = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
+  const SimKeyframe& c = a[0];
+  const SimKeyframe& q = b[1];  // 10 frames later, another map scale
+  const VerificationResult r = VerifyPlace(c.view, q.view);
+  ASSERT_TRUE(r.accepted) << r.reason;
+  const Sim3 truth = TrueQueryFromCandidate(c, q);
+  Eigen::Matrix<double, 7, 1> delta;
+  delta << 0.05, -0.04, 0.03, 0.02, -0.03, 0.01, 0.04;
+  const Sim3 start = Sim3::Exp(delta) * truth;
+  double t0, r0, t1, r1;
+  Sim3Error(start, truth, q.map_scale, &t0, &r0);
+  const Sim3RefineResult refined = RefineSim3(c.view, q.view, r.matches, start);
+  ASSERT_TRUE(refined.ok);
+  Sim3Error(refined.query_from_candidate, truth, q.map_scale, &t1, &r1);
+  std::printf("refinement: %.3f m / %.2f deg -> %.3f m / %.2f deg, %d inliers of %zu\n", t0, r0, t1, r1,
+              refined.num_inliers, r.matches.size());
+  EXPECT_LT(t1, 0.02);
+  EXPECT_LT(r1, 0.5);
+  EXPECT_NEAR(refined.query_from_candidate.scale(), truth.scale(), 0.02 * truth.scale());
+  EXPECT_GE(refined.num_inliers, 50);
+  // The same through VerifyPlace with the optimisation on.
+  VerificationOptions with_opt;
+  with_opt.optimize = true;
+  const VerificationResult ro = VerifyPlace(c.view, q.view, with_opt);
+  ASSERT_TRUE(ro.accepted) << ro.reason;
+  Sim3Error(ro.query_from_candidate, truth, q.map_scale, &t1, &r1);
+  EXPECT_LT(t1, 0.02);
 }
 
 TEST(SimPlaceRecognitionTest, CrossCameraFisheye) {
