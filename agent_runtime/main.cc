@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   sa_group->add_option("--calibration", sa.calibration, "camera calibration YAML overriding the dataset's");
   sa_group->add_option("--sim", sa.sim_scenario, "fly a simulated agent of this scenario (hall3, disjoint2, repeated, FILE)");
   sa_group->add_option("--sim-agent", sa.sim_agent, "agent index in the scenario")->capture_default_str();
+  sa_group->add_option("--video", sa.video, "live camera (0, /dev/video0) or video file; needs --calibration");
   sa_group->add_option("--trajectory", sa.trajectory_out, "write the per-frame trajectory (TUM format)");
   sa_group->add_option("--keyframes", sa.keyframes_out, "write the keyframe trajectory (TUM format)");
   sa_group->add_option("--ground-truth", sa.ground_truth_out, "write the input's ground truth of the processed frames (TUM)");

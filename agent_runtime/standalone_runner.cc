@@ -9,7 +9,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "slam_core/io/calibration_yaml.h"
 #include "slam_core/io/dataset.h"
+#include "slam_core/io/video_source.h"
 #include "slam_core/io/trajectory_io.h"
 #include "slam_core/vo/agent_vo.h"
 #include "tests/sim/sim_frame_source.h"
@@ -32,6 +34,17 @@ std::unique_ptr<FrameSource> OpenSource(const StandaloneOptions& o, std::string*
       return nullptr;
     }
     return std::make_unique<sim::SimFrameSource>(simulation, o.sim_agent);
+  }
+  if (!o.video.empty()) {
+    CameraIntrinsics intrinsics;
+    IoStatus status = ReadCalibrationYaml(o.calibration, &intrinsics);
+    if (!status.ok()) {
+      *error = status.message();
+      return nullptr;
+    }
+    auto video = VideoSource::Open(o.video, intrinsics, &status);
+    if (!video) *error = status.message();
+    return video;
   }
   DatasetOptions d;
   d.path = o.dataset;
@@ -85,7 +98,10 @@ class Pacer {
 }  // namespace
 
 std::string StandaloneOptions::Validate() const {
-  if (dataset.empty() == sim_scenario.empty()) return "give exactly one of --dataset DIR or --sim SCENARIO";
+  if (dataset.empty() + sim_scenario.empty() + video.empty() != 2) {
+    return "give exactly one of --dataset DIR, --sim SCENARIO or --video DEVICE|FILE";
+  }
+  if (!video.empty() && calibration.empty()) return "--video needs --calibration FILE.yaml";
   if (!ParseDatasetFormat(format)) return "--format must be auto, euroc, tum or kitti, got '" + format + "'";
   if (rate != "max" && rate != "realtime") {
     try {
@@ -126,7 +142,7 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
   int64_t frames = 0, tracked = 0;
   TrackingResult last;
   std::vector<KeyframePose> ground_truth;
-  spdlog::info("standalone VO on {} ({} frames, {}x{} {})", o.sim_scenario.empty() ? o.dataset : "sim:" + o.sim_scenario,
+  spdlog::info("standalone VO on {} ({} frames, {}x{} {})", !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset,
                source->size(), camera->width(), camera->height(), CameraTypeName(camera->type()));
   while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
     auto frame = source->Next();

@@ -1,5 +1,5 @@
 // `ccm_agent --standalone`: runs the whole agent VO without DDS on a dataset folder
-// (EuRoC / TUM / KITTI) or a simulated agent, writes the per-frame and keyframe
+// (EuRoC / TUM / KITTI), a live camera / video file or a simulated agent, writes the per-frame and keyframe
 // trajectories (TUM format) and prints progress and timing statistics. Owns the two VO
 // threads: tracking runs on the caller's thread, local mapping on a thread started and
 // joined by Run().
@@ -16,6 +16,7 @@ struct StandaloneOptions {
   std::string format = "auto";   ///< auto, euroc, tum, kitti
   std::string calibration;       ///< optional calibration YAML override
   std::string sim_scenario;      ///< built-in scenario name or YAML file
+  std::string video;             ///< live camera ("0", /dev/video0) or video file; needs calibration
   int sim_agent = 0;             ///< agent index within the scenario
   std::string trajectory_out;    ///< per-frame trajectory (TUM); empty: not written
   std::string keyframes_out;     ///< keyframe trajectory (TUM); empty: not written

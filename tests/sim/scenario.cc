@@ -1,21 +1,11 @@
 #include "tests/sim/scenario.h"
+#include "slam_core/geometry/camera_presets.h"
 
 #include <set>
 
 namespace ccm::sim {
 
-CameraIntrinsics EurocCamera() {
-  CameraIntrinsics c;
-  c.type = CameraType::kPinholeRadTan;
-  c.width_px = 752;
-  c.height_px = 480;
-  c.fx = 458.654;
-  c.fy = 457.296;
-  c.cx = 367.215;
-  c.cy = 248.375;
-  c.distortion = {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05};
-  return c;
-}
+CameraIntrinsics EurocCamera() { return EurocCam0Intrinsics(); }
 
 CameraIntrinsics FisheyeCamera() {
   CameraIntrinsics c;

@@ -3,35 +3,10 @@
 #include <random>
 
 #include "slam_core/geometry/camera_models.h"
+#include "slam_core/geometry/camera_presets.h"
 
 namespace ccm {
 namespace {
-
-CameraIntrinsics EurocCam0() {  // calibration of EuRoC MAV cam0
-  CameraIntrinsics c;
-  c.type = CameraType::kPinholeRadTan;
-  c.width_px = 752;
-  c.height_px = 480;
-  c.fx = 458.654;
-  c.fy = 457.296;
-  c.cx = 367.215;
-  c.cy = 248.375;
-  c.distortion = {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05};
-  return c;
-}
-
-CameraIntrinsics TumViFisheye() {  // calibration of a TUM-VI cam0 (equidistant)
-  CameraIntrinsics c;
-  c.type = CameraType::kFisheyeEquidistant;
-  c.width_px = 512;
-  c.height_px = 512;
-  c.fx = 190.978;
-  c.fy = 190.973;
-  c.cx = 254.932;
-  c.cy = 256.897;
-  c.distortion = {0.0034823894, 0.000715034, -0.0020532361, 0.00020293673};
-  return c;
-}
 
 // max_radius_px: fisheye image corners lie beyond the lens' field of view (black in
 // real images), so only the image circle is checked there.
@@ -56,8 +31,8 @@ void CheckRoundTripOverImage(const CameraIntrinsics& c, double max_radius_px = 1
   EXPECT_LT(worst, 1e-6) << CameraTypeName(c.type);
 }
 
-TEST(Camera, PinholeRadTanRoundTripBelowMicroPixel) { CheckRoundTripOverImage(EurocCam0()); }
-TEST(Camera, FisheyeRoundTripBelowMicroPixel) { CheckRoundTripOverImage(TumViFisheye(), 250.0); }
+TEST(Camera, PinholeRadTanRoundTripBelowMicroPixel) { CheckRoundTripOverImage(EurocCam0Intrinsics()); }
+TEST(Camera, FisheyeRoundTripBelowMicroPixel) { CheckRoundTripOverImage(TumViFisheyeIntrinsics(), 250.0); }
 
 void CheckJacobianNumerically(const CameraIntrinsics& c) {
   const auto cam = MakeCamera(c);
@@ -81,21 +56,21 @@ void CheckJacobianNumerically(const CameraIntrinsics& c) {
   }
 }
 
-TEST(Camera, PinholeJacobianMatchesFiniteDifferences) { CheckJacobianNumerically(EurocCam0()); }
-TEST(Camera, FisheyeJacobianMatchesFiniteDifferences) { CheckJacobianNumerically(TumViFisheye()); }
+TEST(Camera, PinholeJacobianMatchesFiniteDifferences) { CheckJacobianNumerically(EurocCam0Intrinsics()); }
+TEST(Camera, FisheyeJacobianMatchesFiniteDifferences) { CheckJacobianNumerically(TumViFisheyeIntrinsics()); }
 
 TEST(Camera, PointsBehindPinholeAreRejectedFisheyeSeesBeyondNinetyDegrees) {
-  const auto pin = MakeCamera(EurocCam0());
+  const auto pin = MakeCamera(EurocCam0Intrinsics());
   Eigen::Vector2d uv;
   EXPECT_FALSE(pin->Project({0.1, 0.1, -1.0}, &uv));
   EXPECT_FALSE(pin->Project({0.0, 0.0, 0.0}, &uv));
-  const auto fish = MakeCamera(TumViFisheye());
+  const auto fish = MakeCamera(TumViFisheyeIntrinsics());
   EXPECT_TRUE(fish->Project({1.0, 0.0, -0.05}, &uv));  // 93 deg off-axis
   EXPECT_FALSE(fish->Project({0.0, 0.0, -1.0}, &uv));  // straight behind
 }
 
 TEST(Camera, UndistortToNormalizedMatchesPinholeGeometry) {
-  const auto cam = MakeCamera(EurocCam0());
+  const auto cam = MakeCamera(EurocCam0Intrinsics());
   const Eigen::Vector3d p(0.4, -0.2, 2.0);
   Eigen::Vector2d uv, xy;
   ASSERT_TRUE(cam->Project(p, &uv));
@@ -104,15 +79,15 @@ TEST(Camera, UndistortToNormalizedMatchesPinholeGeometry) {
 }
 
 TEST(Camera, ValidationReportsWhatIsWrong) {
-  CameraIntrinsics c = EurocCam0();
+  CameraIntrinsics c = EurocCam0Intrinsics();
   EXPECT_EQ(ValidateIntrinsics(c), "");
   c.fx = 0;
   EXPECT_NE(ValidateIntrinsics(c).find("fx"), std::string::npos);
   EXPECT_EQ(MakeCamera(c), nullptr);
-  c = TumViFisheye();
+  c = TumViFisheyeIntrinsics();
   c.distortion.push_back(0.1);
   EXPECT_NE(ValidateIntrinsics(c).find("4 distortion"), std::string::npos);
-  c = EurocCam0();
+  c = EurocCam0Intrinsics();
   c.width_px = 0;
   EXPECT_NE(ValidateIntrinsics(c).find("image size"), std::string::npos);
 }

@@ -3,20 +3,12 @@
 #include <cmath>
 
 #include <Eigen/Geometry>
+#include "slam_core/geometry/camera_presets.h"
 
 namespace ccm::opt::testing {
 
 std::shared_ptr<const CameraModel> MakeTestCamera() {
-  CameraIntrinsics k;
-  k.type = CameraType::kPinholeRadTan;
-  k.width_px = 752;
-  k.height_px = 480;
-  k.fx = 458.654;
-  k.fy = 457.296;
-  k.cx = 367.215;
-  k.cy = 248.375;
-  k.distortion = {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05};
-  return std::shared_ptr<const CameraModel>(MakeCamera(k));
+  return std::shared_ptr<const CameraModel>(MakeCamera(EurocCam0Intrinsics()));
 }
 
 namespace {
