@@ -4,6 +4,7 @@
 //  * `--link-demo N`: streams N synthetic full keyframes to the server through the real
 //    protocol (acks, resends, status) so links and QoS can be checked.
 #include <CLI/CLI.hpp>
+#include <glog/logging.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -60,6 +61,11 @@ int main(int argc, char** argv) {
   sa_group->add_option("--rate", sa.rate, "playback: max, realtime or a speed factor")->capture_default_str();
   sa_group->add_option("--max-frames", sa.max_frames, "stop after N frames (-1: all)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  // Ceres reports rejected trust-region steps (a point behind a camera) as glog warnings:
+  // expected during optimization, noise for an operator. Keep its errors.
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_minloglevel = google::GLOG_ERROR;
+  FLAGS_logtostderr = true;
 
   std::string error;
   if (!config_path.empty()) {

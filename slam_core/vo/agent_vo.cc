@@ -23,7 +23,8 @@ AgentVo::AgentVo(AgentId agent, std::shared_ptr<const CameraModel> camera, VoOpt
       synchronous_(synchronous_mapping),
       extractor_(options.orb),
       init_extractor_(WithFeatures(options.orb, options.init_num_features)),
-      tracker_(&shared_, [this](KeyframeJob job) { Enqueue(std::move(job)); }, [this] { return mapping_idle(); }),
+      tracker_(&shared_, [this](KeyframeJob job) { Enqueue(MappingJob{std::move(job), nullptr, std::nullopt}); },
+               [this] { return mapping_idle(); }),
       mapper_(&shared_, acks) {}
 
 TrackingResult AgentVo::TrackFrame(const Frame& frame) {
@@ -33,6 +34,11 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
   VoFrame f = MakeVoFrame(frame.stamp_ns, frame_index_++, extractor.Extract(frame.image), *shared_.camera);
   const TrackingResult r = tracker_.Track(std::move(f));
   const double ms = MsSince(t0);
+  {
+    std::lock_guard<std::mutex> lock(map_mutex_);
+    current_map_ = tracker_.map();
+    current_ref_ = tracker_.reference_kf();
+  }
   if (r.world_from_cam && shared_.options.record_frame_trajectory) {
     if (const auto& ref = tracker_.reference_keyframe()) {
       frame_records_.push_back({frame.stamp_ns, ref->id(), ref->cam_from_world() * *r.world_from_cam, *r.world_from_cam});
@@ -50,7 +56,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
   return r;
 }
 
-void AgentVo::Enqueue(KeyframeJob job) {
+void AgentVo::Enqueue(MappingJob job) {
   {
     std::lock_guard<std::mutex> lock(jobs_mutex_);
     jobs_.push_back(std::move(job));
@@ -58,8 +64,14 @@ void AgentVo::Enqueue(KeyframeJob job) {
   jobs_cv_.notify_one();
 }
 
+void AgentVo::ApplyServerData(ServerMapData data) {
+  auto map = CurrentMap();
+  if (!map) return;  // nothing to attach it to while initializing
+  Enqueue(MappingJob{std::nullopt, std::move(map), std::move(data)});
+}
+
 bool AgentVo::RunMappingOnce(std::chrono::milliseconds timeout) {
-  KeyframeJob job;
+  MappingJob job;
   {
     std::unique_lock<std::mutex> lock(jobs_mutex_);
     if (!jobs_cv_.wait_for(lock, timeout, [this] { return stopping_ || !jobs_.empty(); })) return false;
@@ -94,11 +106,18 @@ bool AgentVo::mapping_idle() const {
   return jobs_.empty() && !mapping_busy_;
 }
 
-void AgentVo::ProcessJob(const KeyframeJob& job) {
+void AgentVo::ProcessJob(const MappingJob& job) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (job.server) {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    if (job.map == CurrentMap()) {
+      mapper_.ApplyServerData(job.map.get(), *job.server);
+    }
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
-    mapper_.Process(job);
+    mapper_.Process(*job.keyframe);
   }
   const double ms = MsSince(t0);
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -107,13 +126,21 @@ void AgentVo::ProcessJob(const KeyframeJob& job) {
 
 VoChanges AgentVo::TakeChanges() {
   VoChanges c;
-  c.map = tracker_.map();
-  c.reference_kf = tracker_.reference_kf();
+  {
+    std::lock_guard<std::mutex> lock(map_mutex_);
+    c.map = current_map_;
+    c.reference_kf = current_ref_;
+  }
   shared_.changes.Take(&c.keyframes, &c.map_points);
   return c;
 }
 
-std::shared_ptr<Map> AgentVo::map() const { return tracker_.map(); }
+std::shared_ptr<Map> AgentVo::map() const { return CurrentMap(); }
+
+std::shared_ptr<Map> AgentVo::CurrentMap() const {
+  std::lock_guard<std::mutex> lock(map_mutex_);
+  return current_map_;
+}
 
 AgentVoStats AgentVo::stats() const {
   AgentVoStats s;
@@ -125,8 +152,9 @@ AgentVoStats AgentVo::stats() const {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
     s.mapping = mapper_.stats();
     s.trim = mapper_.trim_stats();
+    s.server = mapper_.server_stats();
   }
-  if (const auto m = tracker_.map()) {
+  if (const auto m = CurrentMap()) {
     s.keyframes_in_map = m->num_keyframes();
     s.map_points_in_map = m->num_map_points();
   }
@@ -152,7 +180,7 @@ std::vector<KeyframePose> AgentVo::KeyframeTrajectory() const {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
     for (const auto& [id, sp] : mapper_.retired_keyframes()) out.push_back({id, MapId(), sp.first, sp.second});
   }
-  if (const auto m = tracker_.map()) {
+  if (const auto m = CurrentMap()) {
     for (const auto& kf : m->keyframes()) out.push_back({kf->id(), m->id(), kf->stamp_ns(), kf->world_from_cam()});
   }
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.id < b.id; });

@@ -6,7 +6,8 @@
 //   * threaded (ccm_agent): the tracking thread calls TrackFrame(), a mapping thread owned
 //     by the runtime loops on RunMappingOnce(); Stop() wakes it for shutdown.
 // Lock order: jobs_mutex_ is never held while the map or a keyframe is locked;
-// mapper_mutex_ and stats_mutex_ are never held together.
+// lock order mapper_mutex_ -> map_mutex_ (ProcessJob checks the segment while applying server
+// data); stats_mutex_ is a leaf.
 #pragma once
 
 #include <chrono>
@@ -38,6 +39,7 @@ struct AgentVoStats {
   size_t map_points_in_map = 0;
   MappingStats mapping;
   TrimStats trim;
+  ServerDataStats server;
   std::vector<double> tracking_ms;  ///< per frame (feature extraction included)
   std::vector<double> mapping_ms;   ///< per keyframe
 };
@@ -66,6 +68,10 @@ class AgentVo {
   void DrainMapping();
   bool mapping_idle() const;
 
+  /// Any thread (the comm module): queues server data for the mapping thread; returns
+  /// at once. Data for a segment that has since been replaced is dropped.
+  void ApplyServerData(ServerMapData data);
+
   VoChanges TakeChanges();
   std::shared_ptr<Map> map() const;
   AgentVoStats stats() const;
@@ -79,8 +85,14 @@ class AgentVo {
   std::vector<KeyframePose> KeyframeTrajectory() const;
 
  private:
-  void Enqueue(KeyframeJob job);
-  void ProcessJob(const KeyframeJob& job);
+  /// One unit of work for the mapping thread: a new keyframe or server data.
+  struct MappingJob {
+    std::optional<KeyframeJob> keyframe;
+    std::shared_ptr<Map> map;  ///< for server data: the segment it belongs to
+    std::optional<ServerMapData> server;
+  };
+  void Enqueue(MappingJob job);
+  void ProcessJob(const MappingJob& job);
 
   VoShared shared_;
   const bool synchronous_;
@@ -92,7 +104,7 @@ class AgentVo {
 
   mutable std::mutex jobs_mutex_;
   std::condition_variable jobs_cv_;
-  std::deque<KeyframeJob> jobs_;
+  std::deque<MappingJob> jobs_;
   bool stopping_ = false;
   bool mapping_busy_ = false;
 
@@ -103,6 +115,13 @@ class AgentVo {
     SE3 world_from_cam;  ///< at tracking time (fallback)
   };
   std::vector<FrameRecord> frame_records_;  // tracking thread only
+
+  std::shared_ptr<Map> CurrentMap() const;
+  // The tracker's segment as published after each frame, for other threads (the tracker
+  // itself may swap its map when it re-initializes).
+  mutable std::mutex map_mutex_;
+  std::shared_ptr<Map> current_map_;
+  KeyframeId current_ref_;
 
   mutable std::mutex stats_mutex_;
   AgentVoStats stats_;

@@ -6,6 +6,7 @@
 
 #include "slam_core/solvers/triangulation.h"
 #include "slam_core/vo/map_bundle_adjustment.h"
+#include "slam_core/vo/server_data_integrator.h"
 #include "slam_core/vo/vo_matching.h"
 
 namespace ccm {
@@ -54,6 +55,10 @@ void LocalMapper::Process(const KeyframeJob& job) {
     if (!map->keyframe(kf->id())) Retire(kf);
   }
   ++stats_.keyframes_processed;
+}
+
+void LocalMapper::ApplyServerData(Map* map, const ServerMapData& data) {
+  IntegrateServerData(data, shared_->agent, shared_->pyramid, map, &bound_, &server_stats_);
 }
 
 void LocalMapper::Retire(const std::shared_ptr<KeyFrame>& kf) {

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "slam_core/vo/local_map_bound.h"
+#include "slam_core/vo/server_map_data.h"
 #include "slam_core/vo/tracker.h"
 
 namespace ccm {
@@ -26,9 +27,12 @@ class LocalMapper {
   LocalMapper(VoShared* shared, const AckSource* acks);
 
   void Process(const KeyframeJob& job);
+  /// Integrates server data into `map` (the segment it was received for).
+  void ApplyServerData(Map* map, const ServerMapData& data);
 
   const MappingStats& stats() const { return stats_; }
   const TrimStats& trim_stats() const { return bound_.stats(); }
+  const ServerDataStats& server_stats() const { return server_stats_; }
   /// Keyframes that left the map (trimmed or culled) with their last pose: kept so the
   /// standalone tool can write the full keyframe trajectory.
   const std::vector<std::pair<KeyframeId, std::pair<int64_t, SE3>>>& retired_keyframes() const { return retired_; }
@@ -49,6 +53,7 @@ class LocalMapper {
   std::deque<std::pair<MapPointId, int64_t>> recent_points_;  // (point, kf_counter_ at creation)
   int64_t kf_counter_ = 0;
   MappingStats stats_;
+  ServerDataStats server_stats_;
   std::vector<std::pair<KeyframeId, std::pair<int64_t, SE3>>> retired_;
 };
 

@@ -1,0 +1,75 @@
+#include "slam_core/vo/server_data_integrator.h"
+
+#include <set>
+
+namespace ccm {
+namespace {
+
+void IntegrateKeyframes(const ServerMapData& data, const SE3& world_from_ref, AgentId own_agent,
+                        const std::shared_ptr<const ScalePyramid>& pyramid, Map* map, LocalMapBound* bound,
+                        ServerDataStats* stats, std::set<KeyframeId>* touched) {
+  for (const ServerKeyframe& skf : data.keyframes) {
+    if (!skf.features || !skf.camera) continue;
+    const SE3 world_from_cam = world_from_ref * skf.ref_from_cam;
+    if (const auto existing = map->keyframe(skf.id)) {
+      // The agent's own keyframes keep the VO estimate (the agent stays autonomous);
+      // keyframes of other agents follow the server, which optimizes them globally.
+      if (skf.id.agent() != own_agent) {
+        existing->SetWorldFromCam(world_from_cam);
+        ++stats->keyframes_updated;
+      }
+      continue;
+    }
+    map->AddKeyframe(std::make_shared<KeyFrame>(skf.id, skf.stamp_ns, skf.camera, skf.features, pyramid, world_from_cam));
+    bound->OnKeyframeInserted(skf.id);
+    touched->insert(skf.id);
+    ++stats->keyframes_added;
+  }
+}
+
+void IntegratePoints(const ServerMapData& data, const SE3& world_from_ref, AgentId own_agent, Map* map,
+                     ServerDataStats* stats, std::set<KeyframeId>* touched) {
+  for (const ServerMapPoint& smp : data.map_points) {
+    const Eigen::Vector3d p_w = world_from_ref * smp.position_ref;
+    auto mp = map->map_point(smp.id);
+    if (!mp) {
+      if (smp.observations.empty()) continue;
+      mp = std::make_shared<MapPoint>(smp.id, p_w, smp.observations.front().first, smp.descriptor);
+      map->AddMapPoint(mp);
+      ++stats->points_added;
+    } else if (smp.id.agent() != own_agent) {
+      mp->SetPosition(p_w);
+      ++stats->points_updated;
+    }
+    for (const auto& [kf_id, idx] : smp.observations) {
+      if (!mp->KeypointIn(kf_id) && map->AddObservation(kf_id, idx, smp.id)) {
+        ++stats->observations_added;
+        touched->insert(kf_id);
+      }
+    }
+    if (mp->num_observations() == 0) {
+      map->EraseMapPoint(smp.id);  // none of its keyframes is in the local map
+    } else {
+      map->UpdateMapPointAppearance(smp.id);
+    }
+  }
+}
+
+}  // namespace
+
+void IntegrateServerData(const ServerMapData& data, AgentId own_agent, const std::shared_ptr<const ScalePyramid>& pyramid,
+                         Map* map, LocalMapBound* bound, ServerDataStats* stats) {
+  const auto ref = map->keyframe(data.reference_kf);
+  if (!ref) {
+    ++stats->messages_stale;
+    return;
+  }
+  const SE3 world_from_ref = ref->world_from_cam();
+  std::set<KeyframeId> touched;
+  IntegrateKeyframes(data, world_from_ref, own_agent, pyramid, map, bound, stats, &touched);
+  IntegratePoints(data, world_from_ref, own_agent, map, stats, &touched);
+  for (const KeyframeId kf : touched) map->UpdateConnections(kf);
+  ++stats->messages_applied;
+}
+
+}  // namespace ccm

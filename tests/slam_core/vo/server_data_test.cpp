@@ -1,0 +1,82 @@
+// Server data (keyframes and points of "another agent", relative to the agent's reference
+// keyframe) integrated into the local map while the VO keeps tracking.
+#include <gtest/gtest.h>
+
+#include "tests/slam_core/vo/vo_sim_run.h"
+
+namespace ccm {
+namespace {
+
+TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingContinues) {
+  std::string error;
+  const auto sim = testing::LoadSimulation("hall3", &error);
+  ASSERT_NE(sim, nullptr) << error;
+  sim::SimFrameSource source(sim, 0, 0, 1, 160);
+  std::shared_ptr<const CameraModel> camera(MakeCamera(source.intrinsics()));
+  AckAll acks;
+  AgentVo vo(1, camera, VoOptions{}, &acks, /*synchronous_mapping=*/true);
+  for (int i = 0; i < 120; ++i) vo.TrackFrame(*source.Next());
+  const VoChanges changes = vo.TakeChanges();
+  ASSERT_TRUE(changes.map && changes.reference_kf.valid());
+  const auto ref = changes.map->keyframe(changes.reference_kf);
+  ASSERT_NE(ref, nullptr);
+
+  // The "server" sends copies of three older keyframes under agent 2's ids, with points.
+  ServerMapData data;
+  data.reference_kf = ref->id();
+  std::vector<std::shared_ptr<KeyFrame>> originals;
+  for (const auto& kf : changes.map->keyframes()) {
+    if (kf->id() != ref->id() && originals.size() < 3) originals.push_back(kf);
+  }
+  ASSERT_EQ(originals.size(), 3u);
+  std::map<MapPointId, ServerMapPoint> points;
+  for (size_t k = 0; k < originals.size(); ++k) {
+    const KeyframeId foreign = KeyframeId::Make(2, 1000 + k);
+    data.keyframes.push_back({foreign, originals[k]->stamp_ns(), originals[k]->camera_ptr(),
+                              originals[k]->features_ptr(), ref->cam_from_world() * originals[k]->world_from_cam()});
+    const auto mps = originals[k]->map_points();
+    for (size_t i = 0; i < mps.size(); ++i) {
+      const auto mp = mps[i].valid() ? changes.map->map_point(mps[i]) : nullptr;
+      if (!mp) continue;
+      ServerMapPoint& smp = points[mps[i]];
+      smp.id = MapPointId::Make(2, mps[i].counter());
+      smp.position_ref = ref->cam_from_world() * mp->position();
+      smp.descriptor = mp->descriptor();
+      smp.observations.emplace_back(foreign, static_cast<int>(i));
+    }
+  }
+  for (auto& [id, smp] : points) data.map_points.push_back(smp);
+  vo.ApplyServerData(data);
+  vo.DrainMapping();
+
+  const auto map = vo.map();
+  for (size_t k = 0; k < originals.size(); ++k) {
+    const auto foreign = map->keyframe(KeyframeId::Make(2, 1000 + k));
+    ASSERT_NE(foreign, nullptr) << "foreign keyframe " << k << " not integrated";
+    EXPECT_LT((foreign->camera_center() - originals[k]->camera_center()).norm(), 1e-9);
+  }
+  const AgentVoStats s1 = vo.stats();
+  EXPECT_EQ(s1.server.keyframes_added, 3);
+  EXPECT_EQ(s1.server.points_added, static_cast<int64_t>(points.size()));
+  EXPECT_GE(s1.server.observations_added, static_cast<int64_t>(points.size()));
+  // Foreign keyframes sharing foreign points are connected in the covisibility graph.
+  EXPECT_GT(map->keyframe(KeyframeId::Make(2, 1000))->covisibility().size(), 0u);
+  // Nothing received from the server is reported back as an own change.
+  const VoChanges after = vo.TakeChanges();
+  for (const KeyframeId id : after.keyframes) EXPECT_EQ(id.agent(), 1);
+
+  // Data relative to a keyframe the agent no longer has is stale and dropped.
+  ServerMapData stale = data;
+  stale.reference_kf = KeyframeId::Make(1, 999999);
+  vo.ApplyServerData(stale);
+  vo.DrainMapping();
+  EXPECT_EQ(vo.stats().server.messages_stale, 1);
+
+  // The VO keeps tracking with the extra data in its map.
+  int tracked = 0;
+  for (int i = 0; i < 40; ++i) tracked += vo.TrackFrame(*source.Next()).world_from_cam.has_value();
+  EXPECT_EQ(tracked, 40);
+}
+
+}  // namespace
+}  // namespace ccm
