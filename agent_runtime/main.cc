@@ -60,6 +60,7 @@ int main(int argc, char** argv) {
   sa_group->add_option("--ground-truth", sa.ground_truth_out, "write the input's ground truth of the processed frames (TUM)");
   sa_group->add_option("--rate", sa.rate, "playback: max, realtime or a speed factor")->capture_default_str();
   sa_group->add_option("--max-frames", sa.max_frames, "stop after N frames (-1: all)")->capture_default_str();
+  sa_group->add_flag("--no-acks", sa.no_acks, "act as if the server never acknowledges (local map grows to N+B, then drops)");
   CLI11_PARSE(app, argc, argv);
   // Ceres reports rejected trust-region steps (a point behind a camera) as glog warnings:
   // expected during optimization, noise for an operator. Keep its errors.

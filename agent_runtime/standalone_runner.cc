@@ -130,7 +130,11 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
     std::cerr << "error: invalid camera calibration: " << ValidateIntrinsics(source->intrinsics()) << "\n";
     return 2;
   }
-  AckAll acks;  // no server: every keyframe may leave the local map once older than N
+  // No server: by default every keyframe may leave the local map once older than N;
+  // --no-acks keeps them buffered as for an unreachable server (up to N+B, then lost).
+  AckAll ack_all;
+  AckNone ack_none;
+  const AckSource& acks = o.no_acks ? static_cast<const AckSource&>(ack_none) : ack_all;
   AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false);
   std::atomic<bool> mapping_run{true};
   std::thread mapping([&] {

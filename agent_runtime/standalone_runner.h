@@ -24,6 +24,7 @@ struct StandaloneOptions {
   std::string rate = "max";      ///< "max", "realtime" or a speed factor such as "0.5"
   int64_t max_frames = -1;       ///< stop after this many frames (-1: all)
   int agent_id = 1;
+  bool no_acks = false;           ///< behave as if the server never acknowledges (bounded-map check)
   double progress_period_s = 2.0;
   VoOptions vo;
 

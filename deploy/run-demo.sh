@@ -54,9 +54,13 @@ for a in 0 1 2; do
   echo "[demo] agent $a VO: $(grep 'done:' "$OUT/vo_agent$a.log" | sed 's/.*done: //')"
 done
 # Each agent's VO has its own frame and scale: read the per-agent rows (the JOINT row needs a
-# common map frame, which server-side fusion will provide).
+# common map frame, which server-side fusion will provide); one plot per agent.
 "$BIN/tools/eval/ccm_eval" --gt "$OUT/gt_agent0.txt" --est "$OUT/vo_agent0.txt" \
   --gt "$OUT/gt_agent1.txt" --est "$OUT/vo_agent1.txt" --gt "$OUT/gt_agent2.txt" --est "$OUT/vo_agent2.txt" \
-  --name agent0 --name agent1 --name agent2 --json "$OUT/vo_eval.json" --plot "$OUT/vo_eval.png" || status=1
-echo "[demo] trajectories, logs, vo_eval.json and the plot vo_eval.png are in $OUT"
+  --name agent0 --name agent1 --name agent2 --json "$OUT/vo_eval.json" || status=1
+for a in 0 1 2; do
+  "$BIN/tools/eval/ccm_eval" --gt "$OUT/gt_agent$a.txt" --est "$OUT/vo_agent$a.txt" --name "agent$a" \
+    --plot "$OUT/vo_agent$a.png" >/dev/null || status=1
+done
+echo "[demo] trajectories, logs, vo_eval.json and plots vo_agent{0,1,2}.png are in $OUT"
 exit $status
