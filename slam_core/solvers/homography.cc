@@ -73,14 +73,6 @@ int ScoreHomography(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>
   return count;
 }
 
-std::vector<int> MaskToIndices(const std::vector<bool>& mask) {
-  std::vector<int> idx;
-  for (size_t i = 0; i < mask.size(); ++i) {
-    if (mask[i]) idx.push_back(static_cast<int>(i));
-  }
-  return idx;
-}
-
 struct PlaneData {
   std::vector<Eigen::Vector2d> x1, x2;  // normalized image planes
   std::vector<bool> valid;              // both bearings point forward
@@ -178,7 +170,7 @@ HomographyResult EstimateHomography(const std::vector<Eigen::Vector3d>& bearings
   }
   for (int round = 0; round < 2; ++round) {
     Eigen::Matrix3d H;
-    if (!SolveDlt(x1, x2, MaskToIndices(result.inliers), &H)) break;
+    if (!SolveDlt(x1, x2, internal::MaskToIndices(result.inliers), &H)) break;
     const int count = ScoreHomography(H, x1, x2, valid, threshold, &mask);
     if (count < 0.9 * best_count) break;  // keep the least-squares model unless it collapses
     best_count = count;

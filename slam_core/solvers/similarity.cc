@@ -39,14 +39,6 @@ int ScoreModel(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::
   return count;
 }
 
-std::vector<int> MaskToIndices(const std::vector<bool>& mask) {
-  std::vector<int> idx;
-  for (size_t i = 0; i < mask.size(); ++i) {
-    if (mask[i]) idx.push_back(static_cast<int>(i));
-  }
-  return idx;
-}
-
 // Seeded adaptive RANSAC over 3-point samples; returns the best inlier count (-1 if
 // every sample was degenerate).
 int RunRansac(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::Vector3d>& pb,
@@ -140,7 +132,7 @@ Sim3Result EstimateSim3(const std::vector<Eigen::Vector3d>& points_a,
     return result;
   }
   for (int round = 0; options.refine && round < 3; ++round) {
-    const std::optional<Sim3> S = AlignUmeyama(points_a, points_b, options.fix_scale, MaskToIndices(result.inliers));
+    const std::optional<Sim3> S = AlignUmeyama(points_a, points_b, options.fix_scale, internal::MaskToIndices(result.inliers));
     if (!S) break;
     const int count = ScoreModel(points_a, points_b, *S, options, max_angle, &mask);
     if (count < 0.9 * best_count) break;  // keep the least-squares model unless it collapses

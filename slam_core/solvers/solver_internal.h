@@ -61,6 +61,15 @@ inline int CountTrue(const std::vector<bool>& mask) {
 }
 
 /// Angle between two (not necessarily unit) vectors, robust for small angles.
+/// Indices i with mask[i] set (RANSAC inlier mask -> index list for a refit).
+inline std::vector<int> MaskToIndices(const std::vector<bool>& mask) {
+  std::vector<int> idx;
+  for (size_t i = 0; i < mask.size(); ++i) {
+    if (mask[i]) idx.push_back(static_cast<int>(i));
+  }
+  return idx;
+}
+
 inline double AngleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
