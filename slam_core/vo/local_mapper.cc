@@ -40,7 +40,7 @@ void LocalMapper::Process(const KeyframeJob& job) {
   ++kf_counter_;
   InsertKeyframe(map, job);
   if (!job.already_in_map) {
-    CullRecentPoints(map, *job.keyframe);
+    CullRecentPoints(map);
     TriangulateNewPoints(map, job.keyframe);
     FuseDuplicates(map, job.keyframe);
     LocalBundleAdjustment(map, job.keyframe);
@@ -83,8 +83,7 @@ void LocalMapper::InsertKeyframe(Map* map, const KeyframeJob& job) {
   shared_->changes.Touch(kf->id());
 }
 
-void LocalMapper::CullRecentPoints(Map* map, const KeyFrame& kf) {
-  (void)kf;
+void LocalMapper::CullRecentPoints(Map* map) {
   for (auto it = recent_points_.begin(); it != recent_points_.end();) {
     const auto mp = map->map_point(it->first);
     const int64_t age = kf_counter_ - it->second;

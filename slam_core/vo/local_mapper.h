@@ -39,7 +39,7 @@ class LocalMapper {
 
  private:
   void InsertKeyframe(Map* map, const KeyframeJob& job);
-  void CullRecentPoints(Map* map, const KeyFrame& kf);
+  void CullRecentPoints(Map* map);
   void TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>& kf);
   void FuseDuplicates(Map* map, const std::shared_ptr<KeyFrame>& kf);
   void LocalBundleAdjustment(Map* map, const std::shared_ptr<KeyFrame>& kf);

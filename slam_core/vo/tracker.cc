@@ -240,7 +240,7 @@ int Tracker::TrackLocalMap(VoFrame* f) {
       if (const auto mp = map_->map_point(id); mp && !mp->bad()) points.push_back(mp);
     }
   }
-  SearchMapPointsByProjection(f, points, *shared_->camera, *shared_->pyramid, 1.0 * 3.0, true,
+  SearchMapPointsByProjection(f, points, *shared_->camera, *shared_->pyramid, shared_->options.local_map_radius_px, true,
                               shared_->options.min_view_cos);
   const int inliers = OptimizeFramePose(f);
   for (size_t i = 0; i < f->size(); ++i) {
