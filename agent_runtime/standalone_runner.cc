@@ -156,6 +156,9 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
     last = vo.TrackFrame(*frame);
     ++frames;
     tracked += last.world_from_cam.has_value();
+    if (last.new_segment) {
+      spdlog::warn("frame {}: relocalization kept failing, continuing on a new map segment", frames - 1);
+    }
     if (Clock::now() - last_progress > std::chrono::duration<double>(o.progress_period_s)) {
       const double el = std::chrono::duration<double>(Clock::now() - start).count();
       const auto m = vo.map();
