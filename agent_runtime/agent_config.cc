@@ -14,8 +14,31 @@ std::string AgentConfig::Validate() const {
   if (!(ack_timeout_s > 0.0)) return "ack_timeout_s must be > 0";
   if (max_keyframes < 2) return "max_keyframes (N) must be >= 2";
   if (buffer_keyframes < 0) return "buffer_keyframes (B) must be >= 0";
+  if (const std::string e = vo.Validate(); !e.empty()) return "vo: " + e;
   return {};
 }
+
+namespace {
+
+// The tunables an operator is expected to touch (docs/vo.md explains each).
+bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions* vo, std::string* error) {
+  rt::YamlReader r(node, context);
+  r.Get("features", &vo->orb.num_features);
+  r.Get("init_features", &vo->init_num_features);
+  r.Get("init_min_homography_ratio", &vo->init_min_homography_ratio);
+  r.Get("init_min_parallax_deg", &vo->init_min_parallax_deg);
+  r.Get("kf_min_frames", &vo->kf_min_frames);
+  r.Get("kf_max_frames", &vo->kf_max_frames);
+  r.Get("local_ba_window", &vo->local_ba_window);
+  r.Get("triangulation_neighbours", &vo->triangulation_neighbours);
+  r.Get("lost_frames_before_new_segment", &vo->lost_frames_before_new_segment);
+  r.Get("record_frame_trajectory", &vo->record_frame_trajectory);
+  r.RejectUnknownKeys();
+  if (!r.ok()) *error = r.error();
+  return r.ok();
+}
+
+}  // namespace
 
 bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* error) {
   auto node = rt::YamlReader::LoadFile(path, error);
@@ -32,6 +55,13 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("ack_timeout_s", &config->ack_timeout_s);
   r.Get("max_keyframes", &config->max_keyframes);
   r.Get("buffer_keyframes", &config->buffer_keyframes);
+  if (const YAML::Node vo_node = r.Child("vo"); vo_node && r.ok()) {
+    if (!vo_node.IsMap()) {
+      r.Fail("vo", "must be a mapping of VO options");
+    } else if (!ReadVoOptions(vo_node, path + ": vo", &config->vo, error)) {
+      return false;
+    }
+  }
   r.RejectUnknownKeys();
   if (!r.ok()) {
     *error = r.error();

@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "slam_core/vo/vo_options.h"
+
 namespace ccm::agent {
 
 struct AgentConfig {
@@ -18,6 +20,7 @@ struct AgentConfig {
   double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long
   int max_keyframes = 50;              // N: local map size (CCM-SLAM default)
   int buffer_keyframes = 50;           // B: extra unacknowledged KFs kept (paper: B = N)
+  VoOptions vo;                        // `vo:` section (docs/configuration.md); N and B above win
 
   /// Empty when valid, otherwise the first problem found.
   std::string Validate() const;

@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);
     sa.agent_id = config.agent_id;
+    sa.vo = config.vo;
     sa.vo.bound.max_keyframes = config.max_keyframes;
     sa.vo.bound.max_unacked_buffer = config.buffer_keyframes;
     return agent::RunStandalone(sa, &g_stop_flag);

@@ -36,5 +36,21 @@ TEST(AgentConfig, RejectsUnknownKeyWrongTypeAndBadValue) {
   EXPECT_NE(error.find("does not exist"), std::string::npos) << error;
 }
 
+TEST(AgentConfig, VoSectionSetsOptionsAndIsStrict) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(Write("e.yaml", "vo:\n  init_min_homography_ratio: 0.45\n  features: 1500\n"), &c, &error))
+      << error;
+  EXPECT_DOUBLE_EQ(c.vo.init_min_homography_ratio, 0.45);
+  EXPECT_EQ(c.vo.orb.num_features, 1500);
+  EXPECT_FALSE(LoadAgentConfig(Write("f.yaml", "vo:\n  featurs: 1500\n"), &c, &error));
+  EXPECT_NE(error.find("featurs"), std::string::npos) << error;
+  AgentConfig d;
+  EXPECT_FALSE(LoadAgentConfig(Write("g.yaml", "vo:\n  init_min_homography_ratio: 1.5\n"), &d, &error));
+  EXPECT_NE(error.find("init_min_homography_ratio"), std::string::npos) << error;
+  EXPECT_FALSE(LoadAgentConfig(Write("h.yaml", "vo: 3\n"), &d, &error));
+  EXPECT_NE(error.find("vo"), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace ccm::agent
