@@ -154,6 +154,9 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
     pacer.Wait(frame->stamp_ns);
     if (frame->world_from_cam_gt) ground_truth.push_back({KeyframeId(), MapId(), frame->stamp_ns, *frame->world_from_cam_gt});
     last = vo.TrackFrame(*frame);
+    // Offline at full speed: let mapping finish each keyframe, as it would keep up in real
+    // time; otherwise tracking races ahead on a map that lags behind (seen on KITTI).
+    if (o.rate == "max" && last.new_keyframe) vo.WaitUntilMappingIdle();
     ++frames;
     tracked += last.world_from_cam.has_value();
     if (last.new_segment) {

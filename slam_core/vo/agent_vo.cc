@@ -85,6 +85,7 @@ bool AgentVo::RunMappingOnce(std::chrono::milliseconds timeout) {
     std::lock_guard<std::mutex> lock(jobs_mutex_);
     mapping_busy_ = false;
   }
+  idle_cv_.notify_all();
   return true;
 }
 
@@ -99,6 +100,12 @@ void AgentVo::Stop() {
     stopping_ = true;
   }
   jobs_cv_.notify_all();
+  idle_cv_.notify_all();
+}
+
+void AgentVo::WaitUntilMappingIdle() {
+  std::unique_lock<std::mutex> lock(jobs_mutex_);
+  idle_cv_.wait(lock, [this] { return stopping_ || (jobs_.empty() && !mapping_busy_); });
 }
 
 bool AgentVo::mapping_idle() const {

@@ -67,6 +67,9 @@ class AgentVo {
   /// Processes queued keyframes on the calling thread (end of a threaded run).
   void DrainMapping();
   bool mapping_idle() const;
+  /// Blocks until the mapping thread has processed every queued job (or Stop()). Offline
+  /// "as fast as possible" runs use it so tracking never outruns mapping.
+  void WaitUntilMappingIdle();
 
   /// Any thread (the comm module): queues server data for the mapping thread; returns
   /// at once. Data for a segment that has since been replaced is dropped.
@@ -104,6 +107,7 @@ class AgentVo {
 
   mutable std::mutex jobs_mutex_;
   std::condition_variable jobs_cv_;
+  std::condition_variable idle_cv_;
   std::deque<MappingJob> jobs_;
   bool stopping_ = false;
   bool mapping_busy_ = false;
