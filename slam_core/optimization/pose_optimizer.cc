@@ -89,7 +89,11 @@ OptimizationSummary OptimizePose(const CameraModel& camera, const std::vector<Po
     out.final_cost = s.final_cost;
     out.iterations += std::max(0, static_cast<int>(s.iterations.size()) - 1);
     out.message = s.BriefReport();
+    const std::vector<bool> before = active;
     num_active = Classify(camera, observations, UnpackSe3(pose), options.chi2_threshold, &active);
+    // Classification converged: further robust rounds would repeat this one exactly, so go
+    // straight to the final (non-robust) round. Saves up to two solves per tracked frame.
+    if (active == before && round + 2 < options.num_rounds) round = options.num_rounds - 2;
   }
   out.inlier = active;
   out.num_inliers = num_active;
