@@ -11,6 +11,15 @@ OrbExtractorOptions WithFeatures(OrbExtractorOptions o, int n) {
   return o;
 }
 
+// Appends until the cap, then overwrites cyclically (sample n goes to n % cap).
+void AddSample(std::vector<double>* samples, int64_t n, double value) {
+  if (samples->size() < AgentVoStats::kMaxTimingSamples) {
+    samples->push_back(value);
+  } else {
+    (*samples)[static_cast<size_t>(n) % AgentVoStats::kMaxTimingSamples] = value;
+  }
+}
+
 double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -50,7 +59,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     stats_.frames_tracked += r.world_from_cam.has_value();
     stats_.keyframes_created += r.new_keyframe;
     stats_.segments = tracker_.segments_started() + 1;
-    stats_.tracking_ms.push_back(ms);
+    AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }
   if (synchronous_) DrainMapping();
   return r;
@@ -128,7 +137,7 @@ void AgentVo::ProcessJob(const MappingJob& job) {
   }
   const double ms = MsSince(t0);
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  stats_.mapping_ms.push_back(ms);
+  AddSample(&stats_.mapping_ms, mapping_samples_++, ms);
 }
 
 VoChanges AgentVo::TakeChanges() {

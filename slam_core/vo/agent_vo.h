@@ -40,8 +40,12 @@ struct AgentVoStats {
   MappingStats mapping;
   TrimStats trim;
   ServerDataStats server;
-  std::vector<double> tracking_ms;  ///< per frame (feature extraction included)
-  std::vector<double> mapping_ms;   ///< per keyframe
+  /// Timing samples, at most kMaxTimingSamples each (then the oldest are overwritten, so
+  /// memory stays bounded on long flights): per frame (feature extraction included) and
+  /// per keyframe.
+  static constexpr size_t kMaxTimingSamples = 20000;
+  std::vector<double> tracking_ms;
+  std::vector<double> mapping_ms;
 };
 
 /// What changed since the last TakeChanges(): the comm module's input.
@@ -129,6 +133,7 @@ class AgentVo {
 
   mutable std::mutex stats_mutex_;
   AgentVoStats stats_;
+  int64_t mapping_samples_ = 0;  // guarded by stats_mutex_
 };
 
 }  // namespace ccm

@@ -62,6 +62,7 @@ void LocalMapper::ApplyServerData(Map* map, const ServerMapData& data) {
 }
 
 void LocalMapper::Retire(const std::shared_ptr<KeyFrame>& kf) {
+  if (!shared_->options.record_frame_trajectory) return;  // unbounded flights keep no history
   retired_.push_back({kf->id(), {kf->stamp_ns(), kf->world_from_cam()}});
 }
 

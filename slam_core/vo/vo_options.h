@@ -69,8 +69,9 @@ struct VoOptions {
   /// biases depths short and shrinks the map scale (seen at 1.15 deg on the simulator).
   double min_triangulation_parallax_deg = 1.15;
 
-  /// Keep one small record per tracked frame for FrameTrajectory() (standalone runs,
-  /// evaluation). Off for unbounded onboard runs: it grows with the flight time.
+  /// Keep one small record per tracked frame and per retired keyframe for FrameTrajectory()
+  /// and KeyframeTrajectory() (standalone runs, evaluation). Off for unbounded onboard runs:
+  /// it grows with the flight time (about 100 B per frame).
   bool record_frame_trajectory = true;
 
   std::string Validate() const;
