@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "slam_core/eval/metrics.h"
 #include "slam_core/io/calibration_yaml.h"
 #include "slam_core/io/dataset.h"
 #include "slam_core/io/video_source.h"
@@ -55,12 +56,6 @@ std::unique_ptr<FrameSource> OpenSource(const StandaloneOptions& o, std::string*
   auto source = OpenDataset(d, &status);
   if (!source) *error = status.message();
   return source;
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
 }
 
 bool WriteTum(const std::string& path, const std::vector<KeyframePose>& poses, std::string* error) {

@@ -5,6 +5,18 @@
 
 namespace ccm {
 
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5))];
+}
+
+double PathLengthM(const std::vector<SE3>& poses) {
+  double length = 0.0;
+  for (size_t i = 1; i < poses.size(); ++i) length += (poses[i].translation() - poses[i - 1].translation()).norm();
+  return length;
+}
+
 ErrorStats ComputeStats(const std::vector<double>& values) {
   ErrorStats s;
   s.count = values.size();

@@ -19,6 +19,10 @@ struct ErrorStats {
   double rmse = 0, mean = 0, median = 0, std = 0, min = 0, max = 0, sse = 0;
 };
 ErrorStats ComputeStats(const std::vector<double>& values);
+/// Nearest-rank percentile, q in [0, 1] (0.5: median, 0.95: p95); 0 for no values.
+double Percentile(std::vector<double> values, double q);
+/// Length of the path through the poses' positions [m].
+double PathLengthM(const std::vector<SE3>& poses);
 
 /// ATE translation part: ||t_est_i - t_gt_i|| for associated (aligned) poses [m].
 std::vector<double> AbsoluteTranslationErrors(const std::vector<SE3>& gt,

@@ -38,12 +38,12 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
     old.push_back(*it);
   }
   std::reverse(old.begin(), old.end());  // oldest first
+  // Old own keyframes leave once acknowledged; unacknowledged ones wait in the buffer.
+  // Old foreign keyframes stay while there is room: they help tracking.
   std::vector<KeyframeId> buffered;
   for (const KeyframeId kf : old) {
-    const bool foreign = kf.agent() != own_agent_;
-    if (foreign) {
-      buffered.push_back(kf);  // kept while there is room: useful for tracking
-    } else if (acks.IsAcked(kf)) {
+    if (kf.agent() != own_agent_) continue;
+    if (acks.IsAcked(kf)) {
       if (EraseFromMap(map, kf)) ++stats_.removed_acked;
     } else {
       buffered.push_back(kf);
@@ -63,7 +63,7 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
   }
   for (const KeyframeId kf : buffered) {
     if (total <= limit) break;
-    if (kf.agent() == own_agent_ && EraseFromMap(map, kf)) --total, ++stats_.removed_lost;
+    if (EraseFromMap(map, kf)) --total, ++stats_.removed_lost;
   }
 }
 

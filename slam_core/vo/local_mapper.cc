@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_set>
 
 #include "slam_core/solvers/triangulation.h"
 #include "slam_core/vo/map_bundle_adjustment.h"
@@ -47,9 +46,7 @@ void LocalMapper::Process(const KeyframeJob& job) {
     CullRedundantKeyframes(map, job.keyframe);
   }
   // Remember poses of keyframes that trimming is about to remove.
-  std::unordered_set<KeyframeId> before;
-  std::vector<std::shared_ptr<KeyFrame>> kfs = map->keyframes();
-  for (const auto& kf : kfs) before.insert(kf->id());
+  const std::vector<std::shared_ptr<KeyFrame>> kfs = map->keyframes();
   bound_.Trim(map, job.keyframe->id(), *acks_);
   for (const auto& kf : kfs) {
     if (!map->keyframe(kf->id())) Retire(kf);
@@ -143,8 +140,12 @@ void LocalMapper::FuseDuplicates(Map* map, const std::shared_ptr<KeyFrame>& kf) 
     }
     return pts;
   };
-  auto fuse_into = [&](const std::shared_ptr<KeyFrame>& target, const std::vector<std::shared_ptr<MapPoint>>& pts) {
-    for (const auto& [mp, idx] : MatchPointsIntoKeyframe(*target, pts, 3.0)) {
+  auto grid_of = [](const KeyFrame& k) {
+    return KeypointGrid(k.features(), k.camera().width(), k.camera().height());
+  };
+  auto fuse_into = [&](const std::shared_ptr<KeyFrame>& target, const KeypointGrid& grid,
+                       const std::vector<std::shared_ptr<MapPoint>>& pts) {
+    for (const auto& [mp, idx] : MatchPointsIntoKeyframe(*target, grid, pts, 3.0)) {
       if (mp->bad() || !map->map_point(mp->id())) continue;
       const MapPointId existing = target->MapPointAt(idx);
       if (existing == mp->id()) continue;
@@ -163,12 +164,14 @@ void LocalMapper::FuseDuplicates(Map* map, const std::shared_ptr<KeyFrame>& kf) 
       }
     }
   };
+  // One grid per keyframe: the new keyframe's serves all neighbours' points.
   const auto own = points_of(*kf);
+  const KeypointGrid kf_grid = grid_of(*kf);
   for (const KeyframeId t : targets) {
-    if (const auto target = map->keyframe(t)) fuse_into(target, own);
+    if (const auto target = map->keyframe(t)) fuse_into(target, grid_of(*target), own);
   }
   for (const KeyframeId t : targets) {
-    if (const auto target = map->keyframe(t)) fuse_into(kf, points_of(*target));
+    if (const auto target = map->keyframe(t)) fuse_into(kf, kf_grid, points_of(*target));
   }
   for (const auto& mp : points_of(*kf)) map->UpdateMapPointAppearance(mp->id());
   map->UpdateConnections(kf->id());

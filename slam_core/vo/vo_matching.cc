@@ -123,7 +123,8 @@ std::vector<std::pair<int, int>> MatchForTriangulation(const KeyFrame& kf1, cons
 }
 
 std::vector<std::pair<std::shared_ptr<MapPoint>, int>> MatchPointsIntoKeyframe(
-    const KeyFrame& kf, const std::vector<std::shared_ptr<MapPoint>>& points, double radius_px) {
+    const KeyFrame& kf, const KeypointGrid& grid, const std::vector<std::shared_ptr<MapPoint>>& points,
+    double radius_px) {
   const SE3 cw = kf.cam_from_world();
   const Eigen::Vector3d center = kf.camera_center();
   std::vector<ProjectionCandidate> candidates;
@@ -135,9 +136,6 @@ std::vector<std::pair<std::shared_ptr<MapPoint>, int>> MatchPointsIntoKeyframe(
     candidates.push_back(*c);
     point_of.push_back(static_cast<int>(p));
   }
-  // A grid per call: fusion runs once per keyframe and neighbour, so this stays cheap
-  // compared with the local BA that follows.
-  const KeypointGrid grid(kf.features(), kf.camera().width(), kf.camera().height());
   ProjectionMatchOptions o;
   o.radius_px = radius_px;
   o.max_distance = kOrbThresholdLow;

@@ -255,5 +255,20 @@ TEST(Evaluate, ClearErrors) {
   EXPECT_LT(report.agents[0].ate_m.max, 1e-9);
 }
 
+TEST(Stats, PercentileAndPathLength) {
+  EXPECT_EQ(Percentile({}, 0.5), 0.0);
+  EXPECT_EQ(Percentile({5, 1, 3, 2, 4}, 0.5), 3.0);
+  EXPECT_EQ(Percentile({5, 1, 3, 2, 4}, 0.0), 1.0);
+  EXPECT_EQ(Percentile({5, 1, 3, 2, 4}, 1.0), 5.0);
+  std::vector<double> hundred;
+  for (int i = 1; i <= 100; ++i) hundred.push_back(i);
+  EXPECT_EQ(Percentile(hundred, 0.95), 95.0);
+  const std::vector<SE3> square = {SE3(Eigen::Quaterniond::Identity(), {0, 0, 0}),
+                                   SE3(Eigen::Quaterniond::Identity(), {3, 0, 0}),
+                                   SE3(Eigen::Quaterniond::Identity(), {3, 4, 0})};
+  EXPECT_DOUBLE_EQ(PathLengthM(square), 7.0);
+  EXPECT_EQ(PathLengthM({}), 0.0);
+}
+
 }  // namespace
 }  // namespace ccm

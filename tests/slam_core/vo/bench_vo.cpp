@@ -7,16 +7,6 @@
 
 #include "tests/slam_core/vo/vo_sim_run.h"
 
-namespace {
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
   CLI::App app{"bench_vo: agent VO timings and accuracy on a simulated agent"};
   std::string scenario = "hall3";
@@ -47,8 +37,8 @@ int main(int argc, char** argv) {
     const auto run = ccm::testing::RunVoOnSim(sim, agent, frames, o, acks);
     const double tracked = run.frames_after_init ? static_cast<double>(run.tracked_after_init) / run.frames_after_init : 0;
     std::printf("%5d %10.2f %10.2f %10.2f %10.2f %7.1f%% %6lld %9.4f %9.2f %7.2f%%\n", n,
-                Percentile(run.stats.tracking_ms, 0.5), Percentile(run.stats.tracking_ms, 0.95),
-                Percentile(run.stats.mapping_ms, 0.5), Percentile(run.stats.mapping_ms, 0.95), 100 * tracked,
+                ccm::Percentile(run.stats.tracking_ms, 0.5), ccm::Percentile(run.stats.tracking_ms, 0.95),
+                ccm::Percentile(run.stats.mapping_ms, 0.5), ccm::Percentile(run.stats.mapping_ms, 0.95), 100 * tracked,
                 static_cast<long long>(run.stats.keyframes_created), run.ate_rmse_m, run.path_length_m,
                 run.path_length_m > 0 ? 100 * run.ate_rmse_m / run.path_length_m : 0.0);
     std::fflush(stdout);

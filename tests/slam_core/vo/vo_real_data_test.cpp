@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "slam_core/eval/evaluator.h"
+#include "slam_core/eval/metrics.h"
 #include "slam_core/io/dataset.h"
 #include "slam_core/vo/agent_vo.h"
 
@@ -41,9 +42,9 @@ RealRun RunOn(const std::string& path, const VoOptions& options, const std::stri
     ++run.frames;
   }
   for (const KeyframePose& p : vo.FrameTrajectory()) est.push_back({p.stamp_ns, p.world_from_cam});
-  for (size_t i = 1; i < gt.size(); ++i) {
-    run.path_m += (gt[i].world_from_cam.translation() - gt[i - 1].world_from_cam.translation()).norm();
-  }
+  std::vector<SE3> gt_poses;
+  for (const StampedPose& p : gt) gt_poses.push_back(p.world_from_cam);
+  run.path_m = PathLengthM(gt_poses);
   run.segments = vo.stats().segments;
   EvalReport report;
   std::string error;

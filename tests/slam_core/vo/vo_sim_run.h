@@ -6,6 +6,7 @@
 #include <string>
 
 #include "slam_core/eval/evaluator.h"
+#include "slam_core/eval/metrics.h"
 #include "slam_core/vo/agent_vo.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
@@ -56,9 +57,9 @@ inline VoSimRun RunVoOnSim(const std::shared_ptr<const sim::Simulation>& sim, in
   run.est.clear();
   for (const KeyframePose& p : vo.FrameTrajectory()) run.est.push_back({p.stamp_ns, p.world_from_cam});
   run.segments = run.stats.segments;
-  for (size_t i = 1; i < run.gt.size(); ++i) {
-    run.path_length_m += (run.gt[i].world_from_cam.translation() - run.gt[i - 1].world_from_cam.translation()).norm();
-  }
+  std::vector<SE3> gt_poses;
+  for (const StampedPose& p : run.gt) gt_poses.push_back(p.world_from_cam);
+  run.path_length_m = PathLengthM(gt_poses);
   EvalReport report;
   if (run.est.size() >= 3 && Evaluate({{"agent", run.gt, run.est}}, EvalOptions{}, &report, &run.error)) {
     run.ate_rmse_m = report.agents[0].ate_m.rmse;
