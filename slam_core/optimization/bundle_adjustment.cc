@@ -113,6 +113,18 @@ void FixScaleGauge(const BundleProblem& problem, const std::vector<bool>& active
   }
 }
 
+// Stops Ceres between iterations once the caller's abort flag is set.
+class AbortCallback final : public ceres::IterationCallback {
+ public:
+  explicit AbortCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return flag_->load() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* flag_;
+};
+
 // One Levenberg-Marquardt pass over the active observations.
 ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::vector<bool>& active,
                                      bool robust, int max_iterations,
@@ -158,6 +170,8 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
   so.sparse_linear_algebra_library_type =
       ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SUITE_SPARSE
                                                                             : ceres::EIGEN_SPARSE;
+  AbortCallback abort(options.abort);
+  if (options.abort) so.callbacks.push_back(&abort);
   ceres::Solver::Summary summary;
   if (cp.NumResidualBlocks() > 0) ceres::Solve(so, &cp, &summary);
   return summary;
@@ -240,6 +254,10 @@ OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOpt
       active = ClassifyObservations(*problem, v, options.chi2_threshold, &n);
     }
     run(false, options.refine_iterations);
+  }
+  if (options.abort && options.abort->load()) {
+    ok = false;
+    out.message = "aborted";
   }
   out.usable = ok;
   if (ok) {

@@ -8,6 +8,8 @@
 //   // write poses/points back; erase observations with !s.inlier[i]
 #pragma once
 
+#include <atomic>
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -71,6 +73,9 @@ struct BundleAdjusterOptions {
   /// (40-KF map perturbed 1 deg/5 cm; same map 3 deg/30 cm; 400-KF map): 1e4: 5/13/10,
   /// 1e6: 4/14/5, 1e8: 4/28/4. Larger values are only good close to the optimum.
   double initial_trust_region_radius = 1e6;
+  /// Checked after every iteration: once it reads true the solver stops and the result is
+  /// not usable (the problem stays unchanged). Lets a long global BA yield to a loop closure.
+  const std::atomic<bool>* abort = nullptr;
   std::string Validate() const;
 };
 

@@ -33,15 +33,6 @@ std::uint64_t GetU64(const std::uint8_t* p) {
 
 }  // namespace
 
-std::uint64_t Fnv1a64(const std::uint8_t* data, std::size_t size) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  for (std::size_t i = 0; i < size; ++i) {
-    h ^= data[i];
-    h *= 0x100000001b3ull;
-  }
-  return h;
-}
-
 std::vector<std::uint8_t> SerializeVocabulary(const Vocabulary& vocabulary) {
   const auto& nodes = vocabulary.nodes();
   std::vector<std::uint8_t> out;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "slam_core/common/checksum.h"
 #include "slam_core/place_recognition/vocabulary.h"
 
 namespace ccm {
@@ -19,9 +20,6 @@ namespace ccm {
 /// File magic and the version this code writes (and the only one it reads).
 inline constexpr char kVocabularyMagic[8] = {'C', 'C', 'M', 'V', 'O', 'C', 'A', 'B'};
 inline constexpr std::uint32_t kVocabularyVersion = 1;
-
-/// FNV-1a 64-bit hash of a byte range (the file checksum).
-std::uint64_t Fnv1a64(const std::uint8_t* data, std::size_t size);
 
 /// The file contents of a vocabulary.
 std::vector<std::uint8_t> SerializeVocabulary(const Vocabulary& vocabulary);

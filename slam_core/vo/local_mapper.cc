@@ -5,6 +5,7 @@
 
 #include "slam_core/solvers/triangulation.h"
 #include "slam_core/vo/map_bundle_adjustment.h"
+#include "slam_core/vo/point_fusion.h"
 #include "slam_core/vo/server_data_integrator.h"
 #include "slam_core/vo/vo_matching.h"
 
@@ -132,48 +133,18 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
 
 void LocalMapper::FuseDuplicates(Map* map, const std::shared_ptr<KeyFrame>& kf) {
   const auto targets = kf->BestCovisible(shared_->options.fusion_neighbours);
-  auto points_of = [&](const KeyFrame& k) {
-    std::vector<std::shared_ptr<MapPoint>> pts;
-    for (const MapPointId id : k.map_points()) {
-      if (!id.valid()) continue;
-      if (const auto mp = map->map_point(id); mp && !mp->bad()) pts.push_back(mp);
-    }
-    return pts;
-  };
-  auto grid_of = [](const KeyFrame& k) {
-    return KeypointGrid(k.features(), k.camera().width(), k.camera().height());
-  };
-  auto fuse_into = [&](const std::shared_ptr<KeyFrame>& target, const KeypointGrid& grid,
-                       const std::vector<std::shared_ptr<MapPoint>>& pts) {
-    for (const auto& [mp, idx] : MatchPointsIntoKeyframe(*target, grid, pts, 3.0)) {
-      if (mp->bad() || !map->map_point(mp->id())) continue;
-      const MapPointId existing = target->MapPointAt(idx);
-      if (existing == mp->id()) continue;
-      if (existing.valid()) {
-        const auto other = map->map_point(existing);
-        if (!other) continue;
-        // Keep the better-supported point; the other one's observations move over.
-        if (other->num_observations() >= mp->num_observations()) {
-          map->ReplaceMapPoint(mp->id(), existing);
-        } else {
-          map->ReplaceMapPoint(existing, mp->id());
-        }
-        ++stats_.points_fused;
-      } else if (!mp->KeypointIn(target->id())) {
-        map->AddObservation(target->id(), idx, mp->id());
-      }
-    }
-  };
+  PointFusionResult fusion;
   // One grid per keyframe: the new keyframe's serves all neighbours' points.
-  const auto own = points_of(*kf);
-  const KeypointGrid kf_grid = grid_of(*kf);
+  const auto own = PointsOf(*map, *kf);
   for (const KeyframeId t : targets) {
-    if (const auto target = map->keyframe(t)) fuse_into(target, grid_of(*target), own);
+    if (const auto target = map->keyframe(t)) FusePointsIntoKeyframe(map, target, GridOf(*target), own, 3.0, &fusion);
   }
+  const KeypointGrid kf_grid = GridOf(*kf);
   for (const KeyframeId t : targets) {
-    if (const auto target = map->keyframe(t)) fuse_into(kf, kf_grid, points_of(*target));
+    if (const auto target = map->keyframe(t)) FusePointsIntoKeyframe(map, kf, kf_grid, PointsOf(*map, *target), 3.0, &fusion);
   }
-  for (const auto& mp : points_of(*kf)) map->UpdateMapPointAppearance(mp->id());
+  stats_.points_fused += fusion.fused;
+  for (const auto& mp : PointsOf(*map, *kf)) map->UpdateMapPointAppearance(mp->id());
   map->UpdateConnections(kf->id());
 }
 

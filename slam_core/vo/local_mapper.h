@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "slam_core/vo/local_map_bound.h"
-#include "slam_core/vo/server_map_data.h"
+#include "slam_core/exchange/server_map_data.h"
 #include "slam_core/vo/tracker.h"
 
 namespace ccm {

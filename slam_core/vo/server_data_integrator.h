@@ -6,7 +6,7 @@
 
 #include "slam_core/map/map.h"
 #include "slam_core/vo/local_map_bound.h"
-#include "slam_core/vo/server_map_data.h"
+#include "slam_core/exchange/server_map_data.h"
 
 namespace ccm {
 

@@ -1,0 +1,38 @@
+// Runs the server back-end's stages on threads: one handler thread per agent (started when
+// the agent first submits, or at start for agents of a loaded map), one place-recognition
+// thread, one optimization thread. It owns and joins them all; the back-end stays a
+// thread-agnostic library. Used by ccm_server and by ccm_replay's threaded mode.
+#pragma once
+
+#include <atomic>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "slam_core/server/server_backend.h"
+
+namespace ccm::server {
+
+class BackendRunner {
+ public:
+  /// Starts the threads at once; install before the first Submit (it sets the back-end's
+  /// new-agent callback).
+  explicit BackendRunner(ServerBackend* backend);
+  ~BackendRunner();
+  BackendRunner(const BackendRunner&) = delete;
+  BackendRunner& operator=(const BackendRunner&) = delete;
+
+  /// Stops the back-end's stages and joins every thread. Idempotent.
+  void Stop();
+  size_t num_threads() const;
+
+ private:
+  void StartHandler(AgentId agent);
+
+  ServerBackend* backend_;
+  std::atomic<bool> running_{true};
+  mutable std::mutex mutex_;  // guards threads_; leaf
+  std::vector<std::thread> threads_;
+};
+
+}  // namespace ccm::server

@@ -1,0 +1,422 @@
+#include "slam_core/server/map_persistence.h"
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <cereal/archives/portable_binary.hpp>
+#include <cereal/types/array.hpp>
+#include <cereal/types/string.hpp>
+#include <cereal/types/utility.hpp>
+#include <cereal/types/vector.hpp>
+
+#include "slam_core/common/checksum.h"
+
+namespace ccm {
+namespace {
+
+using Pose7 = std::array<double, 7>;  // qx qy qz qw tx ty tz
+
+Pose7 ToRecord(const SE3& T) {
+  const auto& q = T.rotation();
+  const auto& t = T.translation();
+  return {q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()};
+}
+SE3 FromRecord(const Pose7& p) {
+  return SE3(Eigen::Quaterniond(p[3], p[0], p[1], p[2]), Eigen::Vector3d(p[4], p[5], p[6]));
+}
+
+struct CameraRecord {
+  int type = 0, width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::vector<double> distortion;
+  template <class A>
+  void serialize(A& a) {
+    a(type, width, height, fx, fy, cx, cy, distortion);
+  }
+  bool operator<(const CameraRecord& o) const {
+    return std::tie(type, width, height, fx, fy, cx, cy, distortion) <
+           std::tie(o.type, o.width, o.height, o.fx, o.fy, o.cx, o.cy, o.distortion);
+  }
+};
+
+struct InfoRecord {
+  uint64_t segment = 0, predecessor = 0, parent = 0;
+  Pose7 pred_from_cam{}, parent_from_cam{}, segment_from_cam{};
+  bool settled = false;
+  template <class A>
+  void serialize(A& a) {
+    a(segment, predecessor, parent, pred_from_cam, parent_from_cam, segment_from_cam, settled);
+  }
+};
+
+struct KeyframeRecord {
+  uint64_t id = 0;
+  int64_t stamp_ns = 0;
+  uint32_t camera = 0;  // index into StackRecord::cameras
+  int levels = 8;
+  double scale_factor = 1.2;
+  std::vector<float> kp;  // u v angle response per keypoint
+  std::vector<int8_t> kp_level;
+  std::vector<std::array<uint8_t, 32>> descriptors;
+  std::vector<uint64_t> map_points;  // per keypoint, 0 = none
+  Pose7 pose{};
+  uint64_t parent = 0;
+  std::vector<uint64_t> children, loop_edges;
+  std::vector<std::pair<uint64_t, int>> covisibility;
+  bool has_info = false;
+  InfoRecord info;
+  template <class A>
+  void serialize(A& a) {
+    a(id, stamp_ns, camera, levels, scale_factor, kp, kp_level, descriptors, map_points, pose, parent, children,
+      loop_edges, covisibility, has_info, info);
+  }
+};
+
+struct PointRecord {
+  uint64_t id = 0, reference = 0;
+  std::array<double, 3> position{}, normal{};
+  std::array<uint8_t, 32> descriptor{};
+  double min_distance = 0, max_distance = 0;
+  std::vector<std::pair<uint64_t, int>> observations;
+  template <class A>
+  void serialize(A& a) {
+    a(id, reference, position, normal, descriptor, min_distance, max_distance, observations);
+  }
+};
+
+struct AnchorRecord {
+  uint64_t id = 0, base = 0, segment = 0;
+  Pose7 base_from_cam{};
+  int64_t stamp_ns = 0;
+  template <class A>
+  void serialize(A& a) {
+    a(id, base, segment, base_from_cam, stamp_ns);
+  }
+};
+
+struct MapRecord {
+  uint64_t id = 0, generation = 0;
+  std::vector<KeyframeRecord> keyframes;
+  std::vector<PointRecord> points;
+  std::vector<AnchorRecord> anchors;
+  std::vector<std::pair<uint64_t, uint64_t>> replaced;
+  template <class A>
+  void serialize(A& a) {
+    a(id, generation, keyframes, points, anchors, replaced);
+  }
+};
+
+struct HandlerRecord {
+  uint16_t agent = 0;
+  uint64_t segment = 0, map = 0, last_keyframe = 0;
+  double s = 1.0;
+  std::array<double, 7> sim{};  // qx qy qz qw tx ty tz of map_from_segment (scale in s)
+  double scale = 1.0;
+  int64_t keyframes = 0;
+  template <class A>
+  void serialize(A& a) {
+    a(agent, segment, map, last_keyframe, s, sim, scale, keyframes);
+  }
+};
+
+struct EventRecord {
+  int kind = 0;
+  double time_s = 0, seconds = 0;
+  int64_t stamp_ns = 0;
+  uint16_t agent = 0;
+  uint64_t map = 0, other_map = 0, query = 0, candidate = 0;
+  int keyframes = 0;
+  std::string detail;
+  template <class A>
+  void serialize(A& a) {
+    a(kind, time_s, seconds, stamp_ns, agent, map, other_map, query, candidate, keyframes, detail);
+  }
+};
+
+struct StackRecord {
+  uint64_t next_map = 1;
+  std::vector<CameraRecord> cameras;
+  std::vector<MapRecord> maps;
+  std::vector<HandlerRecord> handlers;
+  std::vector<EventRecord> events;
+  template <class A>
+  void serialize(A& a) {
+    a(next_map, cameras, maps, handlers, events);
+  }
+};
+
+CameraRecord ToRecord(const CameraIntrinsics& c) {
+  return {static_cast<int>(c.type), c.width_px, c.height_px, c.fx, c.fy, c.cx, c.cy, c.distortion};
+}
+
+KeyframeRecord ToRecord(const KeyFrame& kf, uint32_t camera, const ServerMap& smap) {
+  KeyframeRecord r;
+  r.id = kf.id().packed();
+  r.stamp_ns = kf.stamp_ns();
+  r.camera = camera;
+  r.levels = kf.pyramid().num_levels;
+  r.scale_factor = kf.pyramid().scale_factor;
+  const FrameFeatures& f = kf.features();
+  for (const Keypoint& k : f.keypoints) {
+    r.kp.insert(r.kp.end(), {k.u, k.v, k.angle_deg, k.response});
+    r.kp_level.push_back(static_cast<int8_t>(k.level));
+  }
+  r.descriptors = f.descriptors;
+  for (const MapPointId id : kf.map_points()) r.map_points.push_back(id.packed());
+  r.pose = ToRecord(kf.world_from_cam());
+  r.parent = kf.parent().packed();
+  for (const KeyframeId c : kf.children()) r.children.push_back(c.packed());
+  for (const KeyframeId l : kf.loop_edges()) r.loop_edges.push_back(l.packed());
+  for (const auto& [n, w] : kf.covisibility()) r.covisibility.emplace_back(n.packed(), w);
+  if (const auto info = smap.Info(kf.id())) {
+    r.has_info = true;
+    r.info = {info->segment.packed(), info->predecessor.packed(), info->parent.packed(), ToRecord(info->pred_from_cam),
+              ToRecord(info->parent_from_cam), ToRecord(info->segment_from_cam), info->settled};
+  }
+  return r;
+}
+
+MapRecord ToRecord(const ServerMap& smap, std::map<CameraRecord, uint32_t>* cameras) {
+  MapRecord r;
+  r.id = smap.id().packed();
+  r.generation = smap.generation();
+  for (const auto& kf : smap.map().keyframes()) {
+    const auto it = cameras->emplace(ToRecord(kf->camera().intrinsics()), static_cast<uint32_t>(cameras->size()));
+    r.keyframes.push_back(ToRecord(*kf, it.first->second, smap));
+  }
+  for (const auto& mp : smap.map().map_points()) {
+    PointRecord p;
+    p.id = mp->id().packed();
+    p.reference = mp->reference_kf().packed();
+    const Eigen::Vector3d pos = mp->position(), n = mp->normal();
+    p.position = {pos.x(), pos.y(), pos.z()};
+    p.normal = {n.x(), n.y(), n.z()};
+    p.descriptor = mp->descriptor();
+    p.min_distance = mp->min_distance_m();
+    p.max_distance = mp->max_distance_m();
+    for (const auto& [kf, idx] : mp->observations()) p.observations.emplace_back(kf.packed(), idx);
+    r.points.push_back(p);
+  }
+  for (const auto& [id, a] : smap.anchors()) {
+    r.anchors.push_back({id.packed(), a.base.packed(), a.segment.packed(), ToRecord(a.base_from_cam), a.stamp_ns});
+  }
+  std::sort(r.anchors.begin(), r.anchors.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  for (const auto& [from, to] : smap.replacements()) r.replaced.emplace_back(from.packed(), to.packed());
+  std::sort(r.replaced.begin(), r.replaced.end());
+  return r;
+}
+
+std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& options,
+                                      const std::vector<std::shared_ptr<const CameraModel>>& cameras,
+                                      std::string* error) {
+  auto smap = std::make_shared<ServerMap>(MapId(r.id), options);
+  Map& map = smap->map();
+  std::map<std::pair<int, double>, std::shared_ptr<const ScalePyramid>> pyramids;
+  for (const KeyframeRecord& k : r.keyframes) {
+    const size_t n = k.kp_level.size();
+    if (k.camera >= cameras.size() || k.kp.size() != 4 * n || k.descriptors.size() != n || k.map_points.size() != n ||
+        k.levels < 1 || k.levels > 16 || !(k.scale_factor > 1.0)) {
+      *error = "keyframe " + std::to_string(k.id) + " is inconsistent";
+      return nullptr;
+    }
+    auto features = std::make_shared<FrameFeatures>();
+    for (size_t i = 0; i < n; ++i) {
+      features->keypoints.push_back({k.kp[4 * i], k.kp[4 * i + 1], k.kp[4 * i + 2], k.kp[4 * i + 3], k.kp_level[i]});
+    }
+    features->descriptors = k.descriptors;
+    auto& pyr = pyramids[{k.levels, k.scale_factor}];
+    if (!pyr) pyr = std::make_shared<ScalePyramid>(ScalePyramid::Make(k.levels, k.scale_factor));
+    auto kf = std::make_shared<KeyFrame>(KeyframeId(k.id), k.stamp_ns, cameras[k.camera], features, pyr, FromRecord(k.pose));
+    for (size_t i = 0; i < n; ++i) kf->SetMapPointAt(i, MapPointId(k.map_points[i]));
+    kf->SetParent(KeyframeId(k.parent));
+    for (const uint64_t c : k.children) kf->AddChild(KeyframeId(c));
+    for (const uint64_t l : k.loop_edges) kf->AddLoopEdge(KeyframeId(l));
+    std::map<KeyframeId, int> covis;
+    for (const auto& [id, w] : k.covisibility) covis.emplace(KeyframeId(id), w);
+    kf->SetCovisibility(std::move(covis));
+    map.AddKeyframe(kf);
+    if (k.has_info) {
+      const InfoRecord& i = k.info;
+      smap->SetInfo(kf->id(), {MapId(i.segment), KeyframeId(i.predecessor), KeyframeId(i.parent),
+                               FromRecord(i.pred_from_cam), FromRecord(i.parent_from_cam),
+                               FromRecord(i.segment_from_cam), i.settled});
+    }
+  }
+  for (const PointRecord& p : r.points) {
+    auto mp = std::make_shared<MapPoint>(MapPointId(p.id), Eigen::Vector3d(p.position[0], p.position[1], p.position[2]),
+                                         KeyframeId(p.reference), p.descriptor);
+    mp->SetAppearance(p.descriptor, Eigen::Vector3d(p.normal[0], p.normal[1], p.normal[2]), p.min_distance, p.max_distance);
+    for (const auto& [kf, idx] : p.observations) mp->AddObservation(KeyframeId(kf), idx);
+    map.AddMapPoint(mp);
+  }
+  for (const AnchorRecord& a : r.anchors) {
+    smap->AddAnchor(KeyframeId(a.id), {KeyframeId(a.base), FromRecord(a.base_from_cam), a.stamp_ns, MapId(a.segment)});
+  }
+  for (const auto& [from, to] : r.replaced) smap->RecordReplacement(MapPointId(from), MapPointId(to));
+  for (uint64_t g = 0; g < r.generation; ++g) smap->BumpGeneration();
+  return smap;
+}
+
+}  // namespace
+
+bool MapPersistence::Save(const ServerBackend& backend, const std::string& path, std::string* error) {
+  StackRecord rec;
+  std::map<CameraRecord, uint32_t> cameras;
+  for (const auto& m : backend.stack().Maps()) {
+    std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
+    if (!m->retired()) rec.maps.push_back(ToRecord(*m, &cameras));
+  }
+  rec.cameras.resize(cameras.size());
+  for (const auto& [c, i] : cameras) rec.cameras[i] = c;
+  rec.next_map = backend.stack().next_map_counter();
+  for (const AgentHandler& h : backend.stack().Handlers()) {
+    const Sim3& S = h.map_from_segment;
+    rec.handlers.push_back({h.agent, h.segment.packed(), h.map.packed(), h.last_keyframe.packed(), S.scale(),
+                            {S.rotation().x(), S.rotation().y(), S.rotation().z(), S.rotation().w(), S.translation().x(),
+                             S.translation().y(), S.translation().z()},
+                            h.scale, h.keyframes});
+  }
+  for (const ServerEvent& e : backend.events()) {
+    rec.events.push_back({static_cast<int>(e.kind), e.time_s, e.seconds, e.stamp_ns, e.agent, e.map.packed(),
+                          e.other_map.packed(), e.query.packed(), e.candidate.packed(), e.keyframes, e.detail});
+  }
+  std::ostringstream payload_stream;
+  {
+    cereal::PortableBinaryOutputArchive archive(payload_stream);
+    archive(rec);
+  }
+  const std::string payload = payload_stream.str();
+  const uint64_t size = payload.size();
+  const uint64_t checksum = Fnv1a64(reinterpret_cast<const uint8_t*>(payload.data()), payload.size());
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(kMapStackMagic, sizeof(kMapStackMagic));
+    out.write(reinterpret_cast<const char*>(&kMapStackVersion), sizeof(kMapStackVersion));
+    out.write(reinterpret_cast<const char*>(&size), sizeof(size));
+    out.write(payload.data(), static_cast<std::streamsize>(payload.size()));
+    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
+    if (!out) {
+      *error = "cannot write " + tmp;
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    *error = "cannot rename " + tmp + " to " + path;
+    return false;
+  }
+  return true;
+}
+
+std::unique_ptr<ServerBackend> MapPersistence::Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
+                                                    ServerOptions options, std::string* error) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    *error = path + ": cannot open";
+    return nullptr;
+  }
+  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  constexpr size_t kHeader = sizeof(kMapStackMagic) + sizeof(uint32_t) + sizeof(uint64_t);
+  if (data.size() < kHeader + sizeof(uint64_t) || std::memcmp(data.data(), kMapStackMagic, sizeof(kMapStackMagic)) != 0) {
+    *error = path + ": not a ccm map stack file";
+    return nullptr;
+  }
+  uint32_t version = 0;
+  uint64_t size = 0, checksum = 0;
+  std::memcpy(&version, data.data() + 8, 4);
+  std::memcpy(&size, data.data() + 12, 8);
+  if (version != kMapStackVersion) {
+    *error = path + ": format version " + std::to_string(version) + ", this build reads " + std::to_string(kMapStackVersion);
+    return nullptr;
+  }
+  if (data.size() != kHeader + size + sizeof(uint64_t)) {
+    *error = path + ": size mismatch (truncated or padded file)";
+    return nullptr;
+  }
+  std::memcpy(&checksum, data.data() + kHeader + size, 8);
+  if (Fnv1a64(reinterpret_cast<const uint8_t*>(data.data() + kHeader), size) != checksum) {
+    *error = path + ": checksum mismatch: file corrupted";
+    return nullptr;
+  }
+  StackRecord rec;
+  try {
+    std::istringstream payload(data.substr(kHeader, size));
+    cereal::PortableBinaryInputArchive archive(payload);
+    archive(rec);
+  } catch (const std::exception& e) {
+    *error = path + ": cannot decode: " + e.what();
+    return nullptr;
+  }
+  std::vector<std::shared_ptr<const CameraModel>> cameras;
+  for (const CameraRecord& c : rec.cameras) {
+    CameraIntrinsics in;
+    in.type = static_cast<CameraType>(c.type);
+    in.width_px = c.width;
+    in.height_px = c.height;
+    in.fx = c.fx, in.fy = c.fy, in.cx = c.cx, in.cy = c.cy;
+    in.distortion = c.distortion;
+    std::shared_ptr<const CameraModel> cam(MakeCamera(in));
+    if (!cam) {
+      *error = path + ": invalid camera: " + ValidateIntrinsics(in);
+      return nullptr;
+    }
+    cameras.push_back(cam);
+  }
+  auto backend = std::make_unique<ServerBackend>(std::move(vocabulary), std::move(options));
+  for (const MapRecord& m : rec.maps) {
+    auto smap = FromRecord(m, backend->options().map, cameras, error);
+    if (!smap) {
+      *error = path + ": " + *error;
+      return nullptr;
+    }
+    backend->stack_.RestoreMap(std::move(smap));
+  }
+  for (const HandlerRecord& h : rec.handlers) {
+    AgentHandler a;
+    a.agent = h.agent;
+    a.segment = MapId(h.segment);
+    a.map = MapId(h.map);
+    a.last_keyframe = KeyframeId(h.last_keyframe);
+    a.map_from_segment = Sim3(h.s, Eigen::Quaterniond(h.sim[3], h.sim[0], h.sim[1], h.sim[2]),
+                              Eigen::Vector3d(h.sim[4], h.sim[5], h.sim[6]));
+    a.scale = h.scale;
+    a.keyframes = h.keyframes;
+    if (!backend->stack_.GetMap(a.map)) {
+      *error = path + ": handler of agent " + std::to_string(h.agent) + " points to a missing map";
+      return nullptr;
+    }
+    backend->stack_.RestoreHandler(a);
+  }
+  backend->stack_.set_next_map_counter(rec.next_map);
+  for (const EventRecord& e : rec.events) {
+    ServerEvent ev;
+    ev.kind = static_cast<ServerEvent::Kind>(e.kind);
+    ev.time_s = e.time_s;
+    ev.seconds = e.seconds;
+    ev.stamp_ns = e.stamp_ns;
+    ev.agent = e.agent;
+    ev.map = MapId(e.map);
+    ev.other_map = MapId(e.other_map);
+    ev.query = KeyframeId(e.query);
+    ev.candidate = KeyframeId(e.candidate);
+    ev.keyframes = e.keyframes;
+    ev.detail = e.detail;
+    backend->events_.push_back(ev);
+  }
+  backend->OnRestored();
+  return backend;
+}
+
+bool ServerBackend::Save(const std::string& path, std::string* error) const {
+  return MapPersistence::Save(*this, path, error);
+}
+
+std::unique_ptr<ServerBackend> ServerBackend::Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
+                                                   ServerOptions options, std::string* error) {
+  return MapPersistence::Load(path, std::move(vocabulary), std::move(options), error);
+}
+
+}  // namespace ccm

@@ -1,0 +1,70 @@
+#include "slam_core/server/outgoing.h"
+
+#include <set>
+#include <unordered_set>
+
+#include "slam_core/server/registration.h"
+#include "slam_core/vo/point_fusion.h"
+
+namespace ccm {
+
+std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId agent, KeyframeId reference_kf,
+                                                const NeighbourhoodOptions& options) {
+  const auto smap = stack.MapHolding(reference_kf);
+  if (!smap) return std::nullopt;
+  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+  if (smap->retired()) return std::nullopt;
+  const Map& map = smap->map();
+  const auto world_from_ref = smap->PoseOf(reference_kf);
+  if (!world_from_ref) return std::nullopt;
+  std::shared_ptr<KeyFrame> base = map.keyframe(reference_kf);
+  MapId segment;
+  if (base) {
+    if (const auto info = smap->Info(reference_kf)) segment = info->segment;
+  } else if (const auto anchor = smap->Anchor(reference_kf)) {
+    base = map.keyframe(anchor->base);
+    segment = anchor->segment;
+  }
+  const auto handler = stack.Handler(agent, segment);
+  if (!base || !handler || handler->scale <= 0.0) return std::nullopt;
+  const double to_vo = 1.0 / handler->scale;
+  const SE3 ref_from_world = world_from_ref->inverse();
+
+  ServerMapData data;
+  data.reference_kf = reference_kf;
+  std::set<KeyframeId> sent;
+  for (const KeyframeId id : base->BestCovisible(options.keyframes + 1)) {
+    if (id == reference_kf || static_cast<int>(data.keyframes.size()) >= options.keyframes) continue;
+    const auto kf = map.keyframe(id);
+    if (!kf) continue;
+    ServerKeyframe skf;
+    skf.id = id;
+    skf.stamp_ns = kf->stamp_ns();
+    skf.camera = kf->camera_ptr();
+    skf.features = kf->features_ptr();
+    skf.ref_from_cam = ScaledPose(ref_from_world * kf->world_from_cam(), to_vo);
+    data.keyframes.push_back(skf);
+    sent.insert(id);
+  }
+  if (data.keyframes.empty()) return std::nullopt;
+  std::unordered_set<MapPointId> seen;
+  for (const KeyframeId id : sent) {
+    for (const auto& mp : PointsOf(map, *map.keyframe(id))) {
+      if (data.map_points.size() >= options.max_points) break;
+      if (!seen.insert(mp->id()).second) continue;
+      ServerMapPoint smp;
+      smp.id = mp->id();
+      smp.position_ref = (ref_from_world * mp->position()) * to_vo;
+      smp.descriptor = mp->descriptor();
+      for (const auto& [kf, idx] : mp->observations()) {
+        // The agent can attach an observation only to keyframes it has: the ones sent now
+        // and its own.
+        if (sent.count(kf) || kf.agent() == agent) smp.observations.emplace_back(kf, idx);
+      }
+      data.map_points.push_back(std::move(smp));
+    }
+  }
+  return data;
+}
+
+}  // namespace ccm

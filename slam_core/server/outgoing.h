@@ -1,0 +1,24 @@
+// What the server sends back to an agent (CCM-SLAM 4.5): the k keyframes most covisible
+// with the agent's reference keyframe, from any agent, and their points, expressed relative
+// to that reference keyframe in the agent's VO scale (the handler's lambda), so the agent
+// can place them however its own frame drifted. Synchronous; takes the map's structure lock
+// shared while it copies.
+#pragma once
+
+#include <optional>
+
+#include "slam_core/exchange/server_map_data.h"
+#include "slam_core/server/map_stack.h"
+
+namespace ccm {
+
+struct NeighbourhoodOptions {
+  int keyframes = 5;        ///< k
+  size_t max_points = 4096;  ///< cap per message (IDL bound)
+};
+
+/// nullopt if the server does not know `reference_kf` (not arrived yet) or has nothing to send.
+std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId agent, KeyframeId reference_kf,
+                                                const NeighbourhoodOptions& options);
+
+}  // namespace ccm

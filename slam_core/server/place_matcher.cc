@@ -1,0 +1,218 @@
+#include "slam_core/server/place_matcher.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "slam_core/place_recognition/map_adapter.h"
+
+namespace ccm {
+
+struct PlaceMatcher::QuerySnapshot {
+  KeyframeId id;
+  MapId map;
+  VerificationView view;
+  BowVector bow;
+  SE3 world_from_cam;
+  std::vector<KeyframeId> covisible;
+  double depth = 1.0;
+  size_t map_keyframes = 0;
+};
+
+namespace {
+
+double MedianFiniteDepth(const VerificationView& v) {
+  std::vector<double> d;
+  for (const auto& p : v.points_cam) {
+    if (p.allFinite() && p.z() > 0) d.push_back(p.z());
+  }
+  if (d.empty()) return 1.0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  return Eigen::AngleAxisd(a.conjugate() * b).angle() * 180.0 / M_PI;
+}
+
+}  // namespace
+
+PlaceMatcher::PlaceMatcher(std::shared_ptr<const Vocabulary> vocabulary, const PlaceMatchingOptions& options,
+                           MapStack* stack)
+    : vocabulary_(std::move(vocabulary)), options_(options), stack_(stack), database_(vocabulary_->num_words()) {}
+
+std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto smap = stack_->MapHolding(kf_id);
+  if (!smap) return std::nullopt;
+  QuerySnapshot q;
+  {
+    std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+    const auto kf = smap->map().keyframe(kf_id);
+    if (smap->retired() || !kf) return std::nullopt;  // fused meanwhile / skipped: nothing to query
+    q.id = kf_id;
+    q.map = smap->id();
+    q.view = MakeVerificationView(*kf, smap->map(), *vocabulary_, options_.vocabulary_levels_up, &q.bow);
+    q.world_from_cam = kf->world_from_cam();
+    q.covisible = kf->BestCovisible(-1);
+    q.map_keyframes = smap->map().num_keyframes();
+  }
+  q.depth = MedianFiniteDepth(q.view);
+  database_.Add(kf_id, q.map, q.bow);
+  Bump(&PlaceMatcherStats::queries);
+  ++agent_queries_[kf_id.agent()];
+  const int64_t since_loop = ++keyframes_since_loop_[q.map];
+
+  // ORB-SLAM's bar: a candidate must look at least as similar as the least similar
+  // covisible neighbour. Without neighbours there is no bar to compare with: skip.
+  if (q.covisible.empty()) return std::nullopt;
+  CandidateOptions copt = options_.candidates;
+  copt.min_score = database_.MinScore(q.bow, q.covisible);
+  const CovisibilityFn covis = [this](KeyframeId id, int n) -> std::vector<KeyframeId> {
+    const auto m = stack_->MapHolding(id);
+    const auto k = m ? m->map().keyframe(id) : nullptr;
+    return k ? k->BestCovisible(n) : std::vector<KeyframeId>{};
+  };
+  std::optional<PlaceDetection> found;
+  if (static_cast<int>(q.map_keyframes) >= options_.loop_min_map_keyframes &&
+      since_loop >= options_.min_keyframes_between_loops) {
+    QueryFilter f;
+    f.only_maps = {q.map};
+    f.exclude_keyframes = q.covisible;
+    f.exclude_keyframes.push_back(q.id);
+    auto cands = database_.DetectCandidates(q.bow, f, copt, covis);
+    // Recent keyframes of the same agent are its own VO neighbourhood, not a loop.
+    cands.erase(std::remove_if(cands.begin(), cands.end(),
+                               [&](const PlaceCandidate& c) {
+                                 const KeyframeId k = c.best.keyframe;
+                                 return k.agent() == q.id.agent() &&
+                                        k.counter() + 2 * static_cast<uint64_t>(options_.min_keyframes_between_loops) >
+                                            q.id.counter();
+                               }),
+                cands.end());
+    Bump(&PlaceMatcherStats::loop_candidates, static_cast<int64_t>(cands.size()));
+    found = TryCandidates(q, cands, PlaceDetection::Kind::kLoop);
+  }
+  if (!found && stack_->num_maps() > 1) {
+    QueryFilter f;
+    f.exclude_maps = {q.map};
+    const auto cands = database_.DetectCandidates(q.bow, f, copt, covis);
+    Bump(&PlaceMatcherStats::match_candidates, static_cast<int64_t>(cands.size()));
+    found = TryCandidates(q, cands, PlaceDetection::Kind::kFusion);
+  }
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.last_query_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return found;
+}
+
+std::optional<PlaceDetection> PlaceMatcher::TryCandidates(const QuerySnapshot& q,
+                                                          const std::vector<PlaceCandidate>& candidates,
+                                                          PlaceDetection::Kind kind) {
+  for (const PlaceCandidate& cand : candidates) {
+    const KeyframeId cid = cand.best.keyframe;
+    const auto cmap = stack_->MapHolding(cid);
+    if (!cmap) continue;
+    if ((kind == PlaceDetection::Kind::kLoop) != (cmap->id() == q.map)) continue;  // maps changed meanwhile
+    VerificationView cview;
+    SE3 world_from_c;
+    {
+      std::shared_lock<WriterPreferringMutex> lock(cmap->structure_mutex());
+      const auto ckf = cmap->map().keyframe(cid);
+      if (cmap->retired() || !ckf) continue;
+      cview = MakeVerificationView(*ckf, cmap->map(), *vocabulary_, options_.vocabulary_levels_up);
+      world_from_c = ckf->world_from_cam();
+    }
+    const VerificationResult v = VerifyPlace(cview, q.view, options_.verification);
+    if (!v.accepted) continue;
+    Bump(&PlaceMatcherStats::verified);
+    Pending p;
+    p.detection.kind = kind;
+    p.detection.query = q.id;
+    p.detection.candidate = cid;
+    p.detection.query_map = q.map;
+    p.detection.candidate_map = cmap->id();
+    p.detection.query_from_candidate = v.query_from_candidate;
+    p.detection.matches = v.matches;
+    p.detection.inliers = v.final_inliers;
+    p.depth = q.depth;
+    p.agent_query_count = agent_queries_[q.id.agent()];
+    if (kind == PlaceDetection::Kind::kFusion) {
+      p.map_transform = Sim3(q.world_from_cam) * v.query_from_candidate * Sim3(world_from_c.inverse());
+      p.probe = world_from_c.translation();
+    } else {
+      const Sim3 corrected_q = Sim3(world_from_c) * v.query_from_candidate.inverse();
+      p.map_transform = corrected_q * Sim3(q.world_from_cam.inverse());
+      p.probe = q.world_from_cam.translation();
+      if (AngleDeg(Eigen::Quaterniond::Identity(), p.map_transform.rotation()) > options_.loop_max_correction_angle_deg) {
+        continue;  // VO does not drift that much in rotation: an aliased view
+      }
+    }
+    return CheckConsistency(p);
+  }
+  return std::nullopt;
+}
+
+bool PlaceMatcher::Agree(const Pending& a, const Pending& b) const {
+  if (AngleDeg(a.map_transform.rotation(), b.map_transform.rotation()) > options_.consistency_max_angle_deg) return false;
+  if (std::abs(std::log(a.map_transform.scale() / b.map_transform.scale())) > options_.consistency_max_scale_diff) {
+    return false;
+  }
+  const double d = (a.map_transform * b.probe - b.map_transform * b.probe).norm();
+  return d <= options_.consistency_max_position_ratio * b.depth;
+}
+
+std::optional<PlaceDetection> PlaceMatcher::CheckConsistency(const Pending& fresh) {
+  const PlaceDetection& d = fresh.detection;
+  const auto key = std::make_tuple(d.query.agent(), static_cast<int>(d.kind),
+                                   d.kind == PlaceDetection::Kind::kLoop ? d.query_map : d.candidate_map);
+  const auto it = pending_.find(key);
+  if (it != pending_.end()) {
+    const Pending& old = it->second;
+    const bool in_window =
+        fresh.agent_query_count - old.agent_query_count <= options_.consistency_window_keyframes &&
+        old.detection.query != d.query && old.detection.query_map == d.query_map &&
+        old.detection.candidate_map == d.candidate_map;
+    if (in_window && Agree(old, fresh)) {
+      PlaceDetection accepted = d;
+      accepted.confirmed_by = old.detection.query;
+      pending_.erase(it);
+      if (d.kind == PlaceDetection::Kind::kLoop) {
+        Bump(&PlaceMatcherStats::accepted_loops);
+      } else {
+        Bump(&PlaceMatcherStats::accepted_fusions);
+      }
+      return accepted;
+    }
+    Bump(&PlaceMatcherStats::inconsistent);
+  }
+  pending_[key] = fresh;
+  return std::nullopt;
+}
+
+void PlaceMatcher::AddToDatabase(const KeyFrame& kf, MapId map) {
+  BowVector bow;
+  vocabulary_->Transform(kf.features().descriptors, &bow);
+  database_.Add(kf.id(), map, bow);
+}
+
+void PlaceMatcher::OnMapsFused(MapId from, MapId into) {
+  database_.ReassignMap(from, into);
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    const PlaceDetection& d = it->second.detection;
+    const bool stale = d.query_map == from || d.candidate_map == from || d.query_map == into || d.candidate_map == into;
+    it = stale ? pending_.erase(it) : std::next(it);
+  }
+  keyframes_since_loop_[into] = 0;
+}
+
+void PlaceMatcher::OnLoopClosed(MapId map) {
+  keyframes_since_loop_[map] = 0;
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    const PlaceDetection& d = it->second.detection;
+    it = d.query_map == map ? pending_.erase(it) : std::next(it);
+  }
+}
+
+}  // namespace ccm

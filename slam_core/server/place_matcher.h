@@ -1,0 +1,97 @@
+// Place recognition on the server (CCM-SLAM 4.7): one bag-of-words database over the
+// keyframes of all agents and maps; each new keyframe is queried twice, inside its own map
+// (loop closure) and against every other map (map matching), candidates are verified
+// geometrically (place_recognition/VerifyPlace) and a detection is accepted only when a
+// second verified detection of the same kind, from another keyframe of the same agent within
+// a few keyframes, implies the same map-level Sim(3) (temporal + geometric consistency), so
+// one aliased view never fuses two maps or closes a false loop.
+// Owned by the server back-end; Process() runs on the place-recognition thread only, the
+// database is thread-safe for the other callers (erase after redundancy removal, fusion).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include "slam_core/place_recognition/keyframe_database.h"
+#include "slam_core/place_recognition/vocabulary.h"
+#include "slam_core/server/map_stack.h"
+#include "slam_core/server/server_options.h"
+
+namespace ccm {
+
+struct PlaceDetection {
+  enum class Kind { kLoop, kFusion } kind = Kind::kLoop;
+  KeyframeId query, candidate;
+  MapId query_map, candidate_map;
+  Sim3 query_from_candidate;  ///< camera frames: p_query = S * p_candidate
+  /// candidate keypoint (index1) -> query keypoint (index2), from the verification.
+  std::vector<FeatureMatch> matches;
+  int inliers = 0;
+  KeyframeId confirmed_by;  ///< the earlier query keyframe whose detection agreed
+};
+
+struct PlaceMatcherStats {
+  int64_t queries = 0;
+  int64_t loop_candidates = 0, match_candidates = 0;
+  int64_t verified = 0;       ///< candidates that passed geometric verification
+  int64_t inconsistent = 0;   ///< verified, but the next detection disagreed or never came
+  int64_t accepted_loops = 0, accepted_fusions = 0;
+  double last_query_ms = 0.0;
+};
+
+class PlaceMatcher {
+ public:
+  PlaceMatcher(std::shared_ptr<const Vocabulary> vocabulary, const PlaceMatchingOptions& options, MapStack* stack);
+
+  /// Adds keyframe `kf` (if still in a map) to the database and searches for a loop or an
+  /// overlap; returns a detection once it is consistent.
+  std::optional<PlaceDetection> Process(KeyframeId kf);
+
+  /// Adds a keyframe's bag of words without querying (rebuilding the database after a load).
+  void AddToDatabase(const KeyFrame& kf, MapId map);
+  /// Database upkeep from other stages.
+  void OnKeyframeErased(KeyframeId kf) { database_.Erase(kf); }
+  void OnMapsFused(MapId from, MapId into);
+  void OnLoopClosed(MapId map);
+
+  KeyframeDatabase& database() { return database_; }
+  const Vocabulary& vocabulary() const { return *vocabulary_; }
+  PlaceMatcherStats stats() const {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    return stats_;
+  }
+
+ private:
+  struct QuerySnapshot;
+  struct Pending {
+    PlaceDetection detection;
+    Sim3 map_transform;  ///< fusion: query map <- candidate map; loop: corrected <- current
+    Eigen::Vector3d probe = Eigen::Vector3d::Zero();  ///< point where two transforms are compared
+    double depth = 1.0;                               ///< query scene depth (tolerance unit)
+    int64_t agent_query_count = 0;
+  };
+  std::optional<PlaceDetection> TryCandidates(const QuerySnapshot& q, const std::vector<PlaceCandidate>& candidates,
+                                              PlaceDetection::Kind kind);
+  std::optional<PlaceDetection> CheckConsistency(const Pending& fresh);
+  bool Agree(const Pending& a, const Pending& b) const;
+  void Bump(int64_t PlaceMatcherStats::*field, int64_t n = 1) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.*field += n;
+  }
+
+  std::shared_ptr<const Vocabulary> vocabulary_;
+  const PlaceMatchingOptions options_;
+  MapStack* stack_;
+  KeyframeDatabase database_;
+  /// Pending detections by (agent, kind, other map); other map = own map for loops.
+  std::map<std::tuple<AgentId, int, MapId>, Pending> pending_;
+  std::map<AgentId, int64_t> agent_queries_;
+  std::map<MapId, int64_t> keyframes_since_loop_;
+  mutable std::mutex stats_mutex_;  // leaf; guards stats_ (written by Process, read by anyone)
+  PlaceMatcherStats stats_;
+};
+
+}  // namespace ccm

@@ -1,0 +1,61 @@
+#include "slam_core/server/redundancy.h"
+
+#include <algorithm>
+
+namespace ccm {
+
+bool RedundancyRemover::IsRedundant(const Map& map, const KeyFrame& kf) const {
+  int valid = 0, redundant = 0;
+  const auto mps = kf.map_points();
+  for (size_t i = 0; i < mps.size(); ++i) {
+    if (!mps[i].valid()) continue;
+    const auto mp = map.map_point(mps[i]);
+    if (!mp || mp->bad()) continue;
+    ++valid;
+    const int level = kf.features().keypoints[i].level;
+    int others = 0;
+    for (const auto& [okf, oidx] : mp->observations()) {
+      if (okf == kf.id()) continue;
+      const auto o = map.keyframe(okf);
+      if (o && static_cast<size_t>(oidx) < o->num_keypoints() && o->features().keypoints[oidx].level <= level + 1) {
+        ++others;
+      }
+      if (others >= 3) break;
+    }
+    redundant += others >= 3;
+  }
+  return valid > 0 && redundant >= theta_ * valid;
+}
+
+RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<KeyframeId>& protected_ids) {
+  RedundancyStep step;
+  Map& map = smap->map();
+  const auto kfs = map.keyframes();
+  if (kfs.size() < 3) return step;
+  const KeyframeId oldest = kfs.front()->id();
+  const auto pick = kfs[std::uniform_int_distribution<size_t>(0, kfs.size() - 1)(rng_)];
+  step.checked = pick->id();
+  for (const KeyframeId nid : pick->BestCovisible(-1)) {
+    if (nid == oldest || std::find(protected_ids.begin(), protected_ids.end(), nid) != protected_ids.end()) continue;
+    const auto n = map.keyframe(nid);
+    if (!n || n->bad() || !n->loop_edges().empty() || !IsRedundant(map, *n)) continue;
+    // Anchor to the strongest neighbour that stays.
+    KeyframeId base;
+    for (const KeyframeId b : n->BestCovisible(-1)) {
+      if (b != nid && map.keyframe(b)) {
+        base = b;
+        break;
+      }
+    }
+    if (!base.valid()) continue;
+    const auto info = smap->Info(nid);
+    smap->AddAnchor(nid, {base, map.keyframe(base)->cam_from_world() * n->world_from_cam(), n->stamp_ns(),
+                          info ? info->segment : MapId()});
+    map.EraseKeyframe(nid);
+    smap->EraseInfo(nid);
+    step.removed.push_back(nid);
+  }
+  return step;
+}
+
+}  // namespace ccm

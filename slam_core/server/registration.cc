@@ -1,0 +1,253 @@
+#include "slam_core/server/registration.h"
+
+#include <algorithm>
+
+#include "slam_core/optimization/bundle_adjustment.h"
+
+namespace ccm {
+namespace {
+
+double MedianDepth(const Map& map, const KeyFrame& kf) {
+  const SE3 cw = kf.cam_from_world();
+  std::vector<double> d;
+  for (const MapPointId id : kf.map_points()) {
+    if (!id.valid()) continue;
+    if (const auto mp = map.map_point(id)) d.push_back((cw * mp->position()).z());
+  }
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+// p_map = S * p_segment for the handler, from one keyframe seen in both frames.
+Sim3 MapFromSegment(const SE3& map_from_cam, const SE3& segment_from_cam, double scale) {
+  const Eigen::Quaterniond q = map_from_cam.rotation() * segment_from_cam.rotation().conjugate();
+  const Eigen::Vector3d t = map_from_cam.translation() - scale * (q * segment_from_cam.translation());
+  return Sim3(scale, q, t);
+}
+
+}  // namespace
+
+SharedMapLock LockHandlerMap(MapStack* stack, AgentId agent, MapId segment, bool* created) {
+  for (;;) {
+    bool made = false;
+    auto map = stack->MapFor(agent, segment, &made);
+    if (created) *created = *created || made;
+    if (!map) continue;  // fused away between lookup and now: resolve again
+    std::shared_lock<WriterPreferringMutex> lock(map->structure_mutex());
+    if (!map->retired()) return {std::move(map), std::move(lock)};
+  }
+}
+
+AgentRegistration::AgentRegistration(AgentId agent, MapStack* stack, const RegistrationOptions& options)
+    : agent_(agent), stack_(stack), options_(options) {}
+
+size_t AgentRegistration::points_waiting() const { return num_waiting_; }
+
+std::shared_ptr<const ScalePyramid> AgentRegistration::Pyramid(int levels, double factor) {
+  auto& p = pyramids_[{levels, factor}];
+  if (!p) p = std::make_shared<ScalePyramid>(ScalePyramid::Make(levels, factor));
+  return p;
+}
+
+RegistrationReport AgentRegistration::Register(const AgentBatch& batch) {
+  RegistrationReport report;
+  std::vector<const KeyframeData*> kfs;
+  for (const auto& kf : batch.keyframes) kfs.push_back(&kf);
+  std::sort(kfs.begin(), kfs.end(), [](const auto* a, const auto* b) { return a->id < b->id; });
+  for (const KeyframeData* kf : kfs) RegisterKeyframe(*kf, &report);
+  for (const MapPointData& mp : batch.map_points) RegisterPoint(mp, &report);
+  for (const KeyframePoseUpdate& u : batch.keyframe_updates) ApplyKeyframeUpdate(u, &report);
+  for (const MapPointPositionUpdate& u : batch.map_point_updates) ApplyPointUpdate(u, batch.segment, &report);
+  report.points_waiting = static_cast<int>(num_waiting_);
+  return report;
+}
+
+void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationReport* report) {
+  bool created = false;
+  SharedMapLock locked = LockHandlerMap(stack_, agent_, data.segment, &created);
+  ServerMap* smap = locked.map.get();
+  if (created) report->new_maps.push_back(smap->id());
+  report->acked_keyframes.push_back(data.id);
+  if (smap->Knows(data.id)) return;  // a resend of something we have
+  const AgentHandler handler = *stack_->Handler(agent_, data.segment);
+
+  RegisteredKeyframe reg{data.id, smap->id(), RegisteredKeyframe::Placement::kFirstOfMap, false};
+  SE3 world_from_cam;
+  if (const auto pred = data.predecessor.valid() ? smap->PoseOf(data.predecessor) : std::nullopt) {
+    world_from_cam = *pred * ScaledPose(data.pred_from_cam, handler.scale);
+    reg.placement = RegisteredKeyframe::Placement::kPredecessor;
+  } else if (const auto par = data.parent.valid() ? smap->PoseOf(data.parent) : std::nullopt) {
+    world_from_cam = *par * ScaledPose(data.parent_from_cam, handler.scale);
+    reg.placement = RegisteredKeyframe::Placement::kParent;
+  } else if (handler.keyframes > 0) {
+    world_from_cam = handler.map_from_segment.TransformPose(data.segment_from_cam);
+    reg.placement = RegisteredKeyframe::Placement::kSegmentPose;
+  } else {
+    // The segment's first keyframe defines its map's frame: the map starts as the VO frame.
+    world_from_cam = data.segment_from_cam;
+  }
+  auto kf = std::make_shared<KeyFrame>(data.id, data.stamp_ns, data.camera, data.features,
+                                       Pyramid(data.pyramid_levels, data.pyramid_scale_factor), world_from_cam);
+  Map& map = smap->map();
+  map.AddKeyframe(kf);
+  ServerKeyframeInfo info;
+  info.segment = data.segment;
+  info.predecessor = data.predecessor;
+  info.parent = data.parent;
+  info.pred_from_cam = data.pred_from_cam;
+  info.parent_from_cam = data.parent_from_cam;
+  info.segment_from_cam = data.segment_from_cam;
+  smap->SetInfo(data.id, info);
+  for (const auto& [idx, mp_id] : data.point_links) {
+    const MapPointId resolved = smap->Resolve(mp_id);
+    if (map.map_point(resolved)) map.AddObservation(data.id, idx, resolved);
+  }
+  int inliers = 0;
+  reg.refined = RefinePose(smap, kf.get(), &inliers);
+  if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
+    UpdateScale(handler, data, smap, *kf);
+  }
+  const SE3 final_pose = kf->world_from_cam();
+  stack_->EditHandler(agent_, data.segment, [&](AgentHandler* h) {
+    if (!h->last_keyframe.valid() || h->last_keyframe < data.id) h->last_keyframe = data.id;
+    ++h->keyframes;
+    h->map_from_segment = MapFromSegment(final_pose, data.segment_from_cam, h->scale);
+  });
+  report->keyframes.push_back(reg);
+  ReleaseWaitingPoints(data.id, report);
+}
+
+bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers) {
+  Map& map = smap->map();
+  std::vector<opt::PointObservation> obs;
+  std::vector<std::pair<int, MapPointId>> refs;
+  const auto mps = kf->map_points();
+  for (size_t i = 0; i < mps.size(); ++i) {
+    if (!mps[i].valid()) continue;
+    const auto mp = map.map_point(mps[i]);
+    if (!mp || mp->bad()) continue;
+    const Keypoint& k = kf->features().keypoints[i];
+    obs.push_back({mp->position(), Eigen::Vector2d(k.u, k.v), kf->pyramid().scale[k.level]});
+    refs.emplace_back(static_cast<int>(i), mps[i]);
+  }
+  *inliers = 0;
+  if (static_cast<int>(obs.size()) < options_.refine_min_inliers) return false;
+  SE3 pose = kf->world_from_cam();
+  const opt::OptimizationSummary s = opt::OptimizePose(kf->camera(), obs, &pose);
+  if (!s.usable || s.num_inliers < options_.refine_min_inliers) return false;
+  kf->SetWorldFromCam(pose);
+  *inliers = s.num_inliers;
+  // Outlier links would pull later optimizations: drop them (the agent's link was wrong or
+  // the point was fused differently on the server).
+  for (size_t i = 0; i < refs.size(); ++i) {
+    if (!s.inlier[i]) map.EraseObservation(kf->id(), refs[i].second);
+  }
+  return true;
+}
+
+void AgentRegistration::UpdateScale(const AgentHandler& handler, const KeyframeData& data, ServerMap* smap,
+                                    const KeyFrame& kf) {
+  const auto pred = smap->PoseOf(data.predecessor);
+  const double received = data.pred_from_cam.translation().norm();
+  const double depth = MedianDepth(smap->map(), kf);
+  if (!pred || depth <= 0.0 || received * handler.scale < options_.scale_min_baseline_depth_ratio * depth) return;
+  const double after = (pred->inverse() * kf.world_from_cam()).translation().norm();
+  const double sample = after / received;
+  if (sample > handler.scale * options_.scale_max_step || sample < handler.scale / options_.scale_max_step) return;
+  stack_->EditHandler(agent_, data.segment, [&](AgentHandler* h) {
+    h->scale += options_.scale_kappa * (sample - h->scale);
+  });
+}
+
+void AgentRegistration::RegisterPoint(const MapPointData& data, RegistrationReport* report) {
+  SharedMapLock locked = LockHandlerMap(stack_, agent_, data.segment);
+  ServerMap* smap = locked.map.get();
+  Map& map = smap->map();
+  const MapPointId resolved = smap->Resolve(data.id);
+  if (map.map_point(resolved) || resolved != data.id) {
+    report->acked_points.push_back(data.id);  // known (a resend) or merged into another point
+    return;
+  }
+  const auto ref_pose = smap->PoseOf(data.reference_kf);
+  if (!ref_pose) {
+    if (static_cast<int>(num_waiting_) >= options_.max_pending_points) {
+      ++report->points_dropped;
+      return;
+    }
+    waiting_[data.reference_kf].push_back(data);
+    ++num_waiting_;
+    return;
+  }
+  report->acked_points.push_back(data.id);
+  const double scale = stack_->Handler(agent_, data.segment)->scale;
+  const Eigen::Vector3d p_w = *ref_pose * (scale * data.position_ref);
+  KeyframeId ref = data.reference_kf;
+  auto mp = std::make_shared<MapPoint>(data.id, p_w, ref, data.descriptor);
+  map.AddMapPoint(mp);
+  for (const auto& [kf_id, idx] : data.observations) map.AddObservation(kf_id, idx, data.id);
+  if (mp->num_observations() == 0) {
+    map.EraseMapPoint(data.id);  // every observer was skipped or removed
+    ++report->points_dropped;
+    return;
+  }
+  if (!map.keyframe(ref)) mp->SetReferenceKf(mp->observations().front().first);
+  map.UpdateMapPointAppearance(data.id);
+  ++report->points_registered;
+}
+
+void AgentRegistration::ReleaseWaitingPoints(KeyframeId kf, RegistrationReport* report) {
+  const auto it = waiting_.find(kf);
+  if (it == waiting_.end()) return;
+  std::vector<MapPointData> points = std::move(it->second);
+  waiting_.erase(it);
+  num_waiting_ -= points.size();
+  for (const MapPointData& mp : points) RegisterPoint(mp, report);
+}
+
+void AgentRegistration::ApplyKeyframeUpdate(const KeyframePoseUpdate& u, RegistrationReport* report) {
+  SharedMapLock locked = LockHandlerMap(stack_, agent_, u.segment);
+  ServerMap* smap = locked.map.get();
+  const auto kf = smap->map().keyframe(u.id);
+  const auto info = smap->Info(u.id);
+  if (!kf || !info || info->settled) {
+    ++report->updates_ignored;
+    return;
+  }
+  const double scale = stack_->Handler(agent_, u.segment)->scale;
+  std::optional<SE3> pose;
+  if (const auto pred = u.predecessor.valid() ? smap->PoseOf(u.predecessor) : std::nullopt) {
+    pose = *pred * ScaledPose(u.pred_from_cam, scale);
+  } else if (const auto par = u.parent.valid() ? smap->PoseOf(u.parent) : std::nullopt) {
+    pose = *par * ScaledPose(u.parent_from_cam, scale);
+  }
+  if (!pose) {
+    ++report->updates_ignored;
+    return;
+  }
+  kf->SetWorldFromCam(*pose);
+  ServerKeyframeInfo updated = *info;
+  updated.predecessor = u.predecessor;
+  updated.pred_from_cam = u.pred_from_cam;
+  updated.parent = u.parent;
+  updated.parent_from_cam = u.parent_from_cam;
+  smap->SetInfo(u.id, updated);
+  ++report->keyframe_updates_applied;
+}
+
+void AgentRegistration::ApplyPointUpdate(const MapPointPositionUpdate& u, MapId segment, RegistrationReport* report) {
+  SharedMapLock locked = LockHandlerMap(stack_, agent_, segment);
+  ServerMap* smap = locked.map.get();
+  const auto mp = smap->map().map_point(u.id);
+  const auto info = smap->Info(u.reference_kf);
+  const auto ref_pose = smap->PoseOf(u.reference_kf);
+  if (!mp || !ref_pose || !info || info->settled) {
+    ++report->updates_ignored;
+    return;
+  }
+  const double scale = stack_->Handler(agent_, segment)->scale;
+  mp->SetPosition(*ref_pose * (scale * u.position_ref));
+  ++report->point_updates_applied;
+}
+
+}  // namespace ccm

@@ -1,0 +1,129 @@
+#include "slam_core/server/server_mapper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "slam_core/vo/map_bundle_adjustment.h"
+#include "slam_core/vo/point_fusion.h"
+
+namespace ccm {
+namespace {
+
+double MedianDepth(const Map& map, const KeyFrame& kf) {
+  const SE3 cw = kf.cam_from_world();
+  std::vector<double> d;
+  for (const auto& mp : PointsOf(map, kf)) d.push_back((cw * mp->position()).z());
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+double AxisAngleDeg(const KeyFrame& a, const KeyFrame& b) {
+  const Eigen::Vector3d za = a.world_from_cam().rotation() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d zb = b.world_from_cam().rotation() * Eigen::Vector3d::UnitZ();
+  return std::acos(std::clamp(za.dot(zb), -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+}  // namespace
+
+ServerMappingReport ServerMapper::Process(ServerMap* smap, const std::shared_ptr<KeyFrame>& kf) const {
+  ServerMappingReport r;
+  Map& map = smap->map();
+  map.UpdateConnections(kf->id());
+  FuseWithNeighbourhood(smap, kf, &r);
+  if (options_.local_ba && NeedsLocalBa(*kf)) {
+    std::vector<std::shared_ptr<KeyFrame>> window{kf};
+    for (const KeyframeId id : kf->BestCovisible(options_.local_ba_window - 1)) {
+      if (const auto n = map.keyframe(id); n && !n->bad()) window.push_back(n);
+    }
+    opt::BundleAdjusterOptions ba = opt::LocalBaDefaults();
+    ba.num_threads = 1;
+    const MapBaReport rep = BundleAdjustKeyframes(&map, window, options_.local_ba_max_fixed, ba, true, nullptr);
+    r.local_ba = rep.summary.usable;
+    r.local_ba_outliers = rep.outliers_removed;
+    map.UpdateConnections(kf->id());
+  }
+  if (options_.duplicate_distance_ratio > 0.0) {
+    const KeyframeId dup = NearDuplicateOf(map, *kf);
+    if (dup.valid()) {
+      const auto base = map.keyframe(dup);
+      smap->AddAnchor(kf->id(), {dup, base->cam_from_world() * kf->world_from_cam(), kf->stamp_ns(),
+                                 smap->Info(kf->id()) ? smap->Info(kf->id())->segment : MapId()});
+      map.EraseKeyframe(kf->id());
+      smap->EraseInfo(kf->id());
+      r.skipped = true;
+      r.duplicate_of = dup;
+    }
+  }
+  return r;
+}
+
+void ServerMapper::FuseWithNeighbourhood(ServerMap* smap, const std::shared_ptr<KeyFrame>& kf,
+                                         ServerMappingReport* r) const {
+  Map& map = smap->map();
+  std::vector<KeyframeId> targets;
+  std::set<KeyframeId> seen{kf->id()};
+  const auto first = kf->BestCovisible(options_.fusion_neighbours);
+  for (const KeyframeId id : first) {
+    if (seen.insert(id).second) targets.push_back(id);
+  }
+  for (const KeyframeId id : first) {
+    const auto n = map.keyframe(id);
+    if (!n) continue;
+    for (const KeyframeId id2 : n->BestCovisible(5)) {
+      if (seen.insert(id2).second) targets.push_back(id2);
+    }
+  }
+  PointFusionResult fusion;
+  const auto own = PointsOf(map, *kf);
+  for (const KeyframeId t : targets) {
+    if (const auto target = map.keyframe(t)) {
+      FusePointsIntoKeyframe(&map, target, GridOf(*target), own, options_.fusion_radius_px, &fusion);
+    }
+  }
+  const KeypointGrid grid = GridOf(*kf);
+  for (const KeyframeId t : targets) {
+    if (const auto target = map.keyframe(t)) {
+      FusePointsIntoKeyframe(&map, kf, grid, PointsOf(map, *target), options_.fusion_radius_px, &fusion);
+    }
+  }
+  for (const auto& [old_id, keep] : fusion.replaced) smap->RecordReplacement(old_id, keep);
+  for (const auto& mp : PointsOf(map, *kf)) map.UpdateMapPointAppearance(mp->id());
+  map.UpdateConnections(kf->id());
+  r->points_fused += fusion.fused;
+  r->observations_linked += fusion.linked;
+}
+
+bool ServerMapper::NeedsLocalBa(const KeyFrame& kf) const {
+  for (const KeyframeId n : kf.BestCovisible(-1)) {
+    if (n.agent() != kf.agent()) return true;
+    if (n.counter() + static_cast<uint64_t>(options_.recent_keyframes) < kf.id().counter()) return true;
+  }
+  return false;
+}
+
+KeyframeId ServerMapper::NearDuplicateOf(const Map& map, const KeyFrame& kf) const {
+  const double depth = MedianDepth(map, kf);
+  if (depth <= 0.0) return KeyframeId::Invalid();
+  KeyframeId dup;
+  for (const KeyframeId id : kf.BestCovisible(5)) {
+    const auto n = map.keyframe(id);
+    if (!n || n->bad()) continue;
+    if ((n->camera_center() - kf.camera_center()).norm() < options_.duplicate_distance_ratio * depth &&
+        AxisAngleDeg(*n, kf) < options_.duplicate_max_angle_deg) {
+      dup = id;
+      break;
+    }
+  }
+  if (!dup.valid()) return dup;
+  // Only if removing it orphans almost nothing: its points keep >= 2 other observers.
+  int total = 0, covered = 0;
+  for (const auto& mp : PointsOf(map, kf)) {
+    ++total;
+    covered += mp->num_observations() - 1 >= 2;
+  }
+  return total > 0 && covered >= 0.9 * total ? dup : KeyframeId::Invalid();
+}
+
+}  // namespace ccm

@@ -1,0 +1,65 @@
+#include "slam_core/server/server_options.h"
+
+namespace ccm {
+
+std::string RegistrationOptions::Validate() const {
+  if (!(scale_kappa > 0.0 && scale_kappa <= 1.0)) return "registration.scale_kappa must be in (0, 1]";
+  if (!(scale_min_baseline_depth_ratio >= 0.0)) return "registration.scale_min_baseline_depth_ratio must be >= 0";
+  if (!(scale_max_step > 1.0)) return "registration.scale_max_step must be > 1";
+  if (refine_min_inliers < 3) return "registration.refine_min_inliers must be >= 3";
+  if (max_pending_points < 0) return "registration.max_pending_points must be >= 0";
+  return "";
+}
+
+std::string ServerMappingOptions::Validate() const {
+  if (fusion_neighbours < 0) return "mapping.fusion_neighbours must be >= 0";
+  if (!(fusion_radius_px > 0.0)) return "mapping.fusion_radius_px must be > 0";
+  if (local_ba_window < 1) return "mapping.local_ba_window must be >= 1";
+  if (local_ba_max_fixed < 0) return "mapping.local_ba_max_fixed must be >= 0";
+  if (recent_keyframes < 0) return "mapping.recent_keyframes must be >= 0";
+  if (!(duplicate_distance_ratio >= 0.0 && duplicate_distance_ratio < 1.0)) {
+    return "mapping.duplicate_distance_ratio must be in [0, 1)";
+  }
+  if (!(duplicate_max_angle_deg >= 0.0)) return "mapping.duplicate_max_angle_deg must be >= 0";
+  return "";
+}
+
+std::string PlaceMatchingOptions::Validate() const {
+  if (auto e = candidates.Validate(); !e.empty()) return "place.candidates: " + e;
+  if (auto e = verification.Validate(); !e.empty()) return "place.verification: " + e;
+  if (vocabulary_levels_up < 0) return "place.vocabulary_levels_up must be >= 0";
+  if (loop_min_map_keyframes < 2) return "place.loop_min_map_keyframes must be >= 2";
+  if (consistency_window_keyframes < 1) return "place.consistency_window_keyframes must be >= 1";
+  if (!(consistency_max_angle_deg > 0.0)) return "place.consistency_max_angle_deg must be > 0";
+  if (!(consistency_max_scale_diff > 0.0)) return "place.consistency_max_scale_diff must be > 0";
+  if (!(consistency_max_position_ratio > 0.0)) return "place.consistency_max_position_ratio must be > 0";
+  if (!(loop_max_correction_angle_deg > 0.0)) return "place.loop_max_correction_angle_deg must be > 0";
+  if (min_keyframes_between_loops < 0) return "place.min_keyframes_between_loops must be >= 0";
+  return "";
+}
+
+std::string OptimizationJobOptions::Validate() const {
+  if (global_ba_iterations < 1) return "optimization.global_ba_iterations must be >= 1";
+  if (global_ba_threads < 1) return "optimization.global_ba_threads must be >= 1";
+  if (pose_graph_iterations < 1) return "optimization.pose_graph_iterations must be >= 1";
+  return "";
+}
+
+std::string RedundancyOptions::Validate() const {
+  if (!(theta > 0.0 && theta <= 1.0)) return "redundancy.theta must be in (0, 1]";
+  if (min_map_keyframes < 3) return "redundancy.min_map_keyframes must be >= 3";
+  return "";
+}
+
+std::string ServerOptions::Validate() const {
+  if (auto e = map.Validate(); !e.empty()) return "map: " + e;
+  for (const std::string& e : {registration.Validate(), mapping.Validate(), place.Validate(), optimization.Validate(),
+                               redundancy.Validate()}) {
+    if (!e.empty()) return e;
+  }
+  if (max_agents < 1 || max_agents > 65535) return "max_agents must be in 1..65535";
+  if (neighbourhood_k < 0) return "neighbourhood_k must be >= 0";
+  return "";
+}
+
+}  // namespace ccm

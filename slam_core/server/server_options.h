@@ -1,0 +1,99 @@
+// Every tunable of the server back-end, with units and defaults (CCM-SLAM / Forster et al.
+// values where the papers give them). Parsed from YAML only by the runtimes and tools.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "slam_core/map/map.h"
+#include "slam_core/place_recognition/geometric_verification.h"
+#include "slam_core/place_recognition/keyframe_database.h"
+
+namespace ccm {
+
+struct RegistrationOptions {
+  /// Forster et al.: lambda_k = lambda_{k-1} + kappa (lambda_hat - lambda_{k-1}).
+  double scale_kappa = 0.05;
+  /// A scale sample needs a received translation of at least this share of the keyframe's
+  /// median scene depth (shorter baselines make |t_after| / |t_received| noise).
+  double scale_min_baseline_depth_ratio = 0.05;
+  /// Scale samples outside [1/x, x] of the current factor are outliers and ignored.
+  double scale_max_step = 1.5;
+  int refine_min_inliers = 15;  ///< pose refinement against the map needs this many inliers
+  /// Points whose reference keyframe has not arrived wait for it, at most this many per agent.
+  int max_pending_points = 20000;
+  std::string Validate() const;
+};
+
+struct ServerMappingOptions {
+  int fusion_neighbours = 10;     ///< covisible keyframes whose points are fused with a new keyframe
+  double fusion_radius_px = 3.0;  ///< search radius at level 0 for duplicate points
+  /// Local BA around a new keyframe when it got connected to keyframes of another agent or
+  /// of an older part of the map (the agent already optimized its own recent window).
+  bool local_ba = true;
+  int local_ba_window = 10;
+  int local_ba_max_fixed = 20;
+  /// Keyframes of the same agent closer than this many ids count as "recent" (no local BA).
+  int recent_keyframes = 20;
+  /// Forster et al.: a keyframe within this share of the scene depth of an existing one,
+  /// looking the same way, whose points all have >= 2 other observers adds nothing: it is
+  /// kept only as a pose anchor. 0 disables.
+  double duplicate_distance_ratio = 0.15;
+  double duplicate_max_angle_deg = 10.0;
+  std::string Validate() const;
+};
+
+struct PlaceMatchingOptions {
+  CandidateOptions candidates = [] {
+    CandidateOptions o;
+    o.max_results = 3;
+    return o;
+  }();
+  VerificationOptions verification;
+  int vocabulary_levels_up = 3;  ///< direct-index depth for verification (L=5: 3, L=6: 4)
+  /// A map needs this many keyframes before loops inside it are searched.
+  int loop_min_map_keyframes = 12;
+  /// Two verified detections from different query keyframes must agree (temporal and
+  /// geometric consistency) before a fusion or loop is accepted: rotation and scale of the
+  /// two map-level Sim(3)s within these bounds, positions within this share of the depth.
+  int consistency_window_keyframes = 6;
+  double consistency_max_angle_deg = 3.0;
+  double consistency_max_scale_diff = 0.05;
+  double consistency_max_position_ratio = 0.1;
+  /// A loop's correction may rotate the query keyframe by at most this much: monocular VO
+  /// drifts in scale and position, rarely by tens of degrees in rotation.
+  double loop_max_correction_angle_deg = 20.0;
+  int min_keyframes_between_loops = 10;  ///< per map, ORB-SLAM's pause after a loop
+  std::string Validate() const;
+};
+
+struct OptimizationJobOptions {
+  bool global_ba_after_loop = true;
+  bool global_ba_after_fusion = true;
+  int global_ba_iterations = 10;
+  int global_ba_threads = 2;
+  int pose_graph_iterations = 20;
+  std::string Validate() const;
+};
+
+struct RedundancyOptions {
+  bool enabled = true;
+  double theta = 0.98;  ///< CCM-SLAM: neighbour redundant if >= theta of its points are seen by >= 3 others
+  int min_map_keyframes = 20;
+  std::uint64_t seed = 1;  ///< the random keyframe whose neighbours are checked
+  std::string Validate() const;
+};
+
+struct ServerOptions {
+  MapOptions map;
+  RegistrationOptions registration;
+  ServerMappingOptions mapping;
+  PlaceMatchingOptions place;
+  OptimizationJobOptions optimization;
+  RedundancyOptions redundancy;
+  int max_agents = 64;
+  int neighbourhood_k = 5;  ///< keyframes sent back to an agent (CCM-SLAM default 5)
+  std::string Validate() const;
+};
+
+}  // namespace ccm

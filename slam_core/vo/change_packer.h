@@ -1,0 +1,49 @@
+// Turns what the VO changed (AgentVo::TakeChanges) into the agent -> server value types:
+// keyframes and points the server has not been sent yet go out in full, the others as pose /
+// position updates, all relative (keyframe to predecessor and parent, point to its reference
+// keyframe). Only the agent's own data is packed; keyframes and points the server shared with
+// the agent are the server's. Owned by one thread (the agent's comm module, or ccm_replay's
+// agent loop); reads the VO map through its thread-safe accessors while mapping runs.
+#pragma once
+
+#include <optional>
+#include <unordered_set>
+
+#include "slam_core/exchange/agent_data.h"
+#include "slam_core/map/map.h"
+#include "slam_core/vo/agent_vo.h"
+
+namespace ccm {
+
+/// The full keyframe `id` of `map` relative to its predecessor (the newest older keyframe of
+/// the same agent still in the map) and its spanning-tree parent. nullopt if absent.
+std::optional<KeyframeData> PackKeyframe(const Map& map, KeyframeId id);
+/// The full map point `id` relative to its reference keyframe (an own observing keyframe);
+/// nullopt if absent or no own keyframe observes it.
+std::optional<MapPointData> PackMapPoint(const Map& map, MapPointId id);
+
+class ChangePacker {
+ public:
+  explicit ChangePacker(AgentId agent) : agent_(agent) {}
+
+  /// Everything changed in `changes.map` since the last call. Keyframes sorted by id.
+  AgentBatch Pack(const VoChanges& changes, int64_t stamp_ns);
+  /// Send `kf` in full again with the next Pack (the server never acknowledged it).
+  void Resend(KeyframeId kf) { resend_.insert(kf); }
+
+  size_t keyframes_sent() const { return keyframes_sent_; }
+  size_t map_points_sent() const { return points_sent_; }
+
+ private:
+  void Forget(const Map& map);
+
+  const AgentId agent_;
+  std::unordered_set<KeyframeId> sent_kfs_;
+  std::unordered_set<MapPointId> sent_points_;
+  std::unordered_set<KeyframeId> resend_;
+  MapId segment_;
+  size_t keyframes_sent_ = 0, points_sent_ = 0;
+  int packs_ = 0;
+};
+
+}  // namespace ccm

@@ -1,0 +1,259 @@
+#include "tools/replay/replay_session.h"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+#include <unordered_set>
+
+#include "server_runtime/backend_runner.h"
+#include "slam_core/vo/agent_vo.h"
+#include "slam_core/vo/change_packer.h"
+
+namespace ccm::replay {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The server's acknowledgements as the agent's bounded local map sees them.
+class AckSet final : public AckSource {
+ public:
+  bool IsAcked(KeyframeId kf) const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return acked_.count(kf) > 0;
+  }
+  void Add(const std::vector<KeyframeId>& kfs) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    acked_.insert(kfs.begin(), kfs.end());
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::unordered_set<KeyframeId> acked_;
+};
+
+struct Agent {
+  ReplayAgentInput input;
+  std::shared_ptr<const CameraModel> camera;
+  AckSet acks;
+  std::unique_ptr<AgentVo> vo;
+  std::unique_ptr<ChangePacker> packer;
+  std::optional<Frame> next;
+  int64_t last_send_ns = -1;
+  int64_t frames = 0, tracked = 0;
+  Trajectory gt;
+};
+
+class Session {
+ public:
+  Session(const ReplayOptions& o, ServerBackend* backend, const ProgressFn& progress)
+      : o_(o), backend_(backend), progress_(progress) {}
+
+  bool Open(std::vector<ReplayAgentInput> inputs, std::string* error) {
+    for (auto& in : inputs) {
+      auto a = std::make_unique<Agent>();
+      a->camera.reset(MakeCamera(in.source->intrinsics()).release());
+      if (!a->camera) {
+        *error = in.name + ": invalid camera calibration: " + ValidateIntrinsics(in.source->intrinsics());
+        return false;
+      }
+      a->vo = std::make_unique<AgentVo>(in.id, a->camera, o_.vo, &a->acks, /*synchronous_mapping=*/!o_.threaded);
+      a->packer = std::make_unique<ChangePacker>(in.id);
+      const int64_t n = in.source->size();
+      total_ += o_.max_frames >= 0 && (n < 0 || n > o_.max_frames) ? o_.max_frames : std::max<int64_t>(n, 0);
+      a->input = std::move(in);
+      agents_.push_back(std::move(a));
+    }
+    return true;
+  }
+
+  void RunDeterministic() {
+    for (auto& a : agents_) Advance(a.get());
+    for (;;) {
+      Agent* a = nullptr;
+      for (auto& c : agents_) {
+        if (c->next && (!a || c->next->stamp_ns < a->next->stamp_ns)) a = c.get();
+      }
+      if (!a) break;
+      Track(a, *a->next);
+      Advance(a);
+      MaybeProgress();
+    }
+    for (auto& a : agents_) Exchange(a.get(), a->last_send_ns + 1);
+    backend_->ProcessAllQueued();
+    if (o_.final_global_ba) {
+      for (const MapSummary& m : backend_->Maps()) backend_->ScheduleGlobalBa(m.id);
+      backend_->ProcessAllQueued();
+    }
+  }
+
+  void RunThreaded() {
+    server::BackendRunner runner(backend_);
+    std::vector<std::thread> threads;
+    for (auto& a : agents_) {
+      threads.emplace_back([this, agent = a.get()] { RunAgentThread(agent); });
+    }
+    {
+      std::unique_lock<std::mutex> lock(done_mutex_);
+      while (finished_ < agents_.size()) {
+        done_cv_.wait_for(lock, std::chrono::duration<double>(o_.progress_period_s));
+        lock.unlock();
+        MaybeProgress();
+        lock.lock();
+      }
+    }
+    for (auto& t : threads) t.join();
+    backend_->WaitUntilIdle();
+    if (o_.final_global_ba) {
+      for (const MapSummary& m : backend_->Maps()) backend_->ScheduleGlobalBa(m.id);
+      backend_->WaitUntilIdle();
+    }
+    runner.Stop();
+  }
+
+  void Collect(ReplayResult* r) {
+    for (auto& a : agents_) {
+      ReplayAgentResult ar;
+      ar.name = a->input.name;
+      ar.id = a->input.id;
+      ar.frames = a->frames;
+      ar.frames_tracked = a->tracked;
+      const AgentVoStats s = a->vo->stats();
+      ar.keyframes_created = s.keyframes_created;
+      ar.segments = s.segments;
+      ar.tracking_ms = s.tracking_ms;
+      ar.ground_truth = a->gt;
+      for (const KeyframePose& p : a->vo->KeyframeTrajectory()) {
+        // The local map also holds keyframes the server shared from other agents.
+        if (p.id.agent() == a->input.id) ar.vo_keyframes.push_back({p.stamp_ns, p.world_from_cam});
+      }
+      std::sort(ar.vo_keyframes.begin(), ar.vo_keyframes.end(),
+                [](const auto& x, const auto& y) { return x.stamp_ns < y.stamp_ns; });
+      ar.server_keyframes = backend_->AgentTrajectory(a->input.id);
+      if (!a->input.source->error().empty() && r->error.empty()) r->error = a->input.name + ": " + a->input.source->error();
+      r->agents.push_back(std::move(ar));
+    }
+  }
+
+ private:
+  void Advance(Agent* a) {
+    a->next.reset();
+    if (o_.max_frames >= 0 && a->frames >= o_.max_frames) return;
+    a->next = a->input.source->Next();
+  }
+
+  void Track(Agent* a, const Frame& f) {
+    if (f.world_from_cam_gt) a->gt.push_back({f.stamp_ns, *f.world_from_cam_gt});
+    const TrackingResult r = a->vo->TrackFrame(f);
+    ++a->frames;
+    a->tracked += r.world_from_cam.has_value();
+    ++frames_done_;
+    if (o_.threaded && r.new_keyframe) a->vo->WaitUntilMappingIdle();
+    if (a->last_send_ns < 0) a->last_send_ns = f.stamp_ns;
+    if (f.stamp_ns - a->last_send_ns >= static_cast<int64_t>(o_.send_period_s * 1e9)) Exchange(a, f.stamp_ns);
+  }
+
+  // One communication round: changes to the server, acks and the neighbourhood back.
+  void Exchange(Agent* a, int64_t stamp_ns) {
+    a->last_send_ns = stamp_ns;
+    AgentBatch batch = a->packer->Pack(a->vo->TakeChanges(), stamp_ns);
+    const KeyframeId ref = batch.reference_kf;
+    if (!batch.empty()) backend_->Submit(std::move(batch));
+    if (!o_.threaded) backend_->ProcessAllQueued();
+    a->acks.Add(backend_->TakeAcks(a->input.id).keyframes);
+    if (o_.map_sharing && ref.valid()) {
+      if (auto data = backend_->Neighbourhood(a->input.id, ref)) a->vo->ApplyServerData(std::move(*data));
+    }
+  }
+
+  void RunAgentThread(Agent* a) {
+    std::atomic<bool> mapping_run{true};
+    std::thread mapping([&] {
+      while (mapping_run) a->vo->RunMappingOnce(std::chrono::milliseconds(200));
+    });
+    for (Advance(a); a->next; Advance(a)) Track(a, *a->next);
+    a->vo->WaitUntilMappingIdle();
+    mapping_run = false;
+    a->vo->Stop();
+    mapping.join();
+    a->vo->DrainMapping();
+    Exchange(a, a->last_send_ns + 1);
+    {
+      std::lock_guard<std::mutex> lock(done_mutex_);
+      ++finished_;
+    }
+    done_cv_.notify_all();
+  }
+
+  void MaybeProgress() {
+    if (!progress_) return;
+    const auto now = Clock::now();
+    std::lock_guard<std::mutex> lock(progress_mutex_);
+    if (std::chrono::duration<double>(now - last_progress_).count() < o_.progress_period_s) return;
+    last_progress_ = now;
+    ReplayProgress p;
+    p.elapsed_s = std::chrono::duration<double>(now - start_).count();
+    p.frames_done = frames_done_;
+    p.frames_total = total_;
+    p.maps = backend_->Maps();
+    const BackendStats s = backend_->stats();
+    p.fusions = s.fusions;
+    p.loops = s.loops;
+    progress_(p);
+  }
+
+  const ReplayOptions& o_;
+  ServerBackend* backend_;
+  const ProgressFn& progress_;
+  std::vector<std::unique_ptr<Agent>> agents_;
+  std::atomic<int64_t> frames_done_{0};
+  int64_t total_ = 0;
+  const Clock::time_point start_ = Clock::now();
+  std::mutex progress_mutex_;
+  Clock::time_point last_progress_ = Clock::now();
+  std::mutex done_mutex_;
+  std::condition_variable done_cv_;
+  size_t finished_ = 0;
+};
+
+}  // namespace
+
+std::string ReplayOptions::Validate() const {
+  if (auto e = vo.Validate(); !e.empty()) return "vo: " + e;
+  if (auto e = server.Validate(); !e.empty()) return "server: " + e;
+  if (!(send_period_s > 0.0)) return "send period must be > 0";
+  if (!(progress_period_s > 0.0)) return "progress period must be > 0";
+  return "";
+}
+
+ReplayResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& options, ServerBackend* backend,
+                       const ProgressFn& progress) {
+  ReplayResult result;
+  const auto t0 = Clock::now();
+  if (const std::string e = options.Validate(); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  std::unordered_set<AgentId> ids;
+  for (const auto& a : agents) {
+    if (!a.source) result.error = a.name + ": no frame source";
+    if (a.id == kServerAgent || !ids.insert(a.id).second) result.error = a.name + ": agent ids must be unique and >= 1";
+  }
+  if (!result.error.empty()) return result;
+  Session session(options, backend, progress);
+  if (!session.Open(std::move(agents), &result.error)) return result;
+  if (options.threaded) {
+    session.RunThreaded();
+  } else {
+    session.RunDeterministic();
+  }
+  session.Collect(&result);
+  result.events = backend->events();
+  result.maps = backend->Maps();
+  result.stats = backend->stats();
+  result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace ccm::replay

@@ -1,0 +1,77 @@
+// ccm_replay's engine: several agents' VO and the server back-end in one process, with the
+// code paths of the real system minus DDS. Each agent's AgentVo tracks its frames; every
+// send period (data time) its changes are packed (ChangePacker) and submitted to the
+// ServerBackend; the server's acknowledgements feed the agent's bounded local map and the
+// server's k covisible keyframes go back into the agent's VO (map sharing). Agents are
+// interleaved by frame timestamp, so the server sees data in the order a live team produces.
+// Deterministic mode runs everything on the caller's thread in a fixed order; threaded mode
+// gives each agent its VO threads and the back-end its stage threads (BackendRunner).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "slam_core/io/frame_source.h"
+#include "slam_core/io/trajectory.h"
+#include "slam_core/server/server_backend.h"
+#include "slam_core/vo/vo_options.h"
+
+namespace ccm::replay {
+
+struct ReplayAgentInput {
+  std::string name;
+  AgentId id = 1;
+  std::unique_ptr<FrameSource> source;
+};
+
+struct ReplayOptions {
+  VoOptions vo;
+  ServerOptions server;
+  double send_period_s = 0.25;   ///< agent -> server batches, data time (CCM-SLAM: 2-5 Hz)
+  bool map_sharing = true;       ///< server -> agent: k covisible keyframes each send period
+  bool threaded = false;         ///< false: one thread, deterministic
+  int64_t max_frames = -1;       ///< per agent (-1: all)
+  bool final_global_ba = true;   ///< one more global BA of every map at the end
+  double progress_period_s = 2.0;
+  std::string Validate() const;
+};
+
+/// Progress line data, sent every progress period.
+struct ReplayProgress {
+  double elapsed_s = 0.0;
+  int64_t frames_done = 0, frames_total = 0;
+  std::vector<MapSummary> maps;
+  int64_t fusions = 0, loops = 0;
+};
+
+struct ReplayAgentResult {
+  std::string name;
+  AgentId id = 0;
+  int64_t frames = 0, frames_tracked = 0;
+  int64_t keyframes_created = 0;
+  int segments = 0;
+  Trajectory ground_truth;            ///< per frame, where the source has it
+  Trajectory vo_keyframes;            ///< the agent's own keyframe trajectory (its VO frame)
+  std::vector<ServerKeyframePose> server_keyframes;  ///< as registered on the server
+  std::vector<double> tracking_ms;
+};
+
+struct ReplayResult {
+  std::vector<ReplayAgentResult> agents;
+  std::vector<ServerEvent> events;
+  std::vector<MapSummary> maps;
+  BackendStats stats;
+  double wall_s = 0.0;
+  std::string error;  ///< non-empty if the run could not start or a source failed
+};
+
+using ProgressFn = std::function<void(const ReplayProgress&)>;
+
+/// Runs every agent to the end of its input. `backend` is the caller's (so it can be saved,
+/// inspected or preloaded from a saved map); it must be empty or loaded, and not running.
+ReplayResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& options, ServerBackend* backend,
+                       const ProgressFn& progress = {});
+
+}  // namespace ccm::replay
