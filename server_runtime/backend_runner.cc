@@ -43,6 +43,7 @@ void BackendRunner::Stop() {
   }
   for (auto& t : threads) t.join();
   backend_->SetNewAgentCallback({});
+  backend_->Resume();
 }
 
 size_t BackendRunner::num_threads() const {

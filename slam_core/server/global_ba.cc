@@ -109,6 +109,22 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   if (snap.problem.observations.empty() || snap.kf_ids.size() < 2) return r;
 
   t0 = Clock::now();
+  // Gross outliers (a point far off its ray, or at the camera centre) carry no information
+  // and make the first iterations chase them: leave them out; they are erased afterwards.
+  std::vector<std::pair<KeyframeId, MapPointId>> gross;
+  {
+    std::vector<opt::Observation> kept;
+    for (const opt::Observation& ob : snap.problem.observations) {
+      const double chi2 = opt::ObservationChi2(snap.problem, ob);
+      if (chi2 >= 0.0 && chi2 <= options.gross_outlier_chi2) {
+        kept.push_back(ob);
+      } else {
+        gross.emplace_back(snap.kf_ids[ob.pose_index], snap.point_ids[ob.point_index]);
+      }
+    }
+    r.observations_dropped = static_cast<int>(snap.problem.observations.size() - kept.size());
+    snap.problem.observations.swap(kept);
+  }
   const std::vector<opt::PoseBlock> poses_before = snap.problem.poses;
   const std::vector<opt::PointBlock> points_before = snap.problem.points;
   r.initial_rmse_px = opt::ReprojectionRmsePx(snap.problem);
@@ -157,6 +173,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     const KeyframeId anc = SnapshotAncestor(map, mp->reference_kf(), corrections);
     if (anc.valid()) mp->SetPosition(corrections.at(anc) * mp->position());
   }
+  for (const auto& [kf, mp] : gross) map.EraseObservation(kf, mp);
   smap->MarkSettled(settled);
   smap->BumpGeneration();
   r.write_back_s = Since(t0);

@@ -20,6 +20,9 @@ struct GlobalBaOptions {
   int threads = 2;
   /// Points need this many observations to enter (fewer constrain nothing).
   int min_observations = 2;
+  /// Observations whose squared whitened error exceeds this before the BA are left out
+  /// (gross outliers: ~40 px at level 0).
+  double gross_outlier_chi2 = 1600.0;
 };
 
 struct GlobalBaReport {
@@ -27,6 +30,7 @@ struct GlobalBaReport {
   MapId map;
   int keyframes = 0, points = 0, observations = 0;
   int keyframes_added_meanwhile = 0;
+  int observations_dropped = 0;  ///< gross outliers left out
   int iterations = 0;
   double initial_rmse_px = 0.0, final_rmse_px = 0.0;
   double snapshot_s = 0.0, solve_s = 0.0, write_back_s = 0.0;

@@ -1,15 +1,19 @@
 #include "slam_core/server/map_fuser.h"
 
 #include <chrono>
+#include <set>
 #include <unordered_set>
 
+#include "slam_core/solvers/similarity.h"
 #include "slam_core/vo/point_fusion.h"
+#include "slam_core/vo/vo_matching.h"
 
 namespace ccm {
 namespace {
 
 constexpr double kFusionRadiusPx = 4.0;
 constexpr int kOverlapNeighbours = 10;
+constexpr double kRefineRadiusPx = 8.0;
 
 std::vector<std::shared_ptr<KeyFrame>> Around(const Map& map, const std::shared_ptr<KeyFrame>& kf) {
   std::vector<std::shared_ptr<KeyFrame>> out{kf};
@@ -28,6 +32,51 @@ std::vector<std::shared_ptr<MapPoint>> PointsOfAll(const Map& map, const std::ve
     }
   }
   return out;
+}
+
+// The verified Sim(3) rests on one keyframe pair; the overlap usually shows much more.
+// With the absorbed map already moved by it, the candidate's neighbourhood points are
+// matched into the query's neighbourhood keyframes, and a Sim(3) fitted robustly to all
+// 3D-3D pairs (in the query camera's frame, inliers within 5 % of their depth) gives the
+// residual correction (near identity). Rotation and scale of a map-to-map transform come
+// out far better from points spread over 20 keyframes than over one view.
+std::optional<Sim3> RefineOverlap(const Map& map, const std::vector<std::shared_ptr<KeyFrame>>& around_q,
+                                  const std::vector<std::shared_ptr<MapPoint>>& points_c, const KeyFrame& q,
+                                  int* pairs, int* inliers) {
+  const SE3 q_from_world = q.cam_from_world();
+  std::vector<Eigen::Vector3d> a, b;  // a: absorbed point, b: kept point; both in q's camera frame
+  for (const auto& kf : around_q) {
+    for (const auto& [mp, idx] : MatchPointsIntoKeyframe(*kf, GridOf(*kf), points_c, kRefineRadiusPx)) {
+      const MapPointId own = kf->MapPointAt(idx);
+      const auto kept = own.valid() ? map.map_point(own) : nullptr;
+      if (!kept || kept == mp) continue;
+      a.push_back(q_from_world * mp->position());
+      b.push_back(q_from_world * kept->position());
+    }
+  }
+  *pairs = static_cast<int>(a.size());
+  if (a.size() < 30) return std::nullopt;
+  solvers::Sim3Options o;
+  o.metric = solvers::Sim3InlierMetric::kRelativeDistance;
+  o.max_relative_distance = 0.05;
+  o.ransac.max_iterations = 200;
+  o.min_inliers = 30;
+  const solvers::Sim3Result r = solvers::EstimateSim3(a, b, o);
+  *inliers = r.num_inliers;
+  if (!r.ok() || r.num_inliers < static_cast<int>(a.size()) / 3) return std::nullopt;
+  // A plausible residual only: the verification already put the maps within a few pixels.
+  const double angle_deg = Eigen::AngleAxisd(r.b_from_a.rotation()).angle() * 180.0 / M_PI;
+  if (angle_deg > 5.0 || std::abs(std::log(r.b_from_a.scale())) > 0.1) return std::nullopt;
+  const Sim3 world_from_q(q.world_from_cam());
+  return world_from_q * r.b_from_a * world_from_q.inverse();
+}
+
+// A point moved by a similarity: position, viewing direction and the distance range in
+// which it can be matched (projection matching checks both).
+void TransformPoint(MapPoint* mp, const Sim3& S) {
+  mp->SetPosition(S * mp->position());
+  mp->SetAppearance(mp->descriptor(), S.rotation() * mp->normal(), S.scale() * mp->min_distance_m(),
+                    S.scale() * mp->max_distance_m());
 }
 
 }  // namespace
@@ -57,7 +106,7 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
   const bool move_candidate_map = mc->map().num_keyframes() <= mq->map().num_keyframes();
   ServerMap* kept = move_candidate_map ? mq.get() : mc.get();
   ServerMap* absorbed = move_candidate_map ? mc.get() : mq.get();
-  const Sim3 S = move_candidate_map ? q_from_c : q_from_c.inverse();
+  Sim3 S = move_candidate_map ? q_from_c : q_from_c.inverse();
   r.kept = kept->id();
   r.absorbed = absorbed->id();
   r.kept_from_absorbed = S;
@@ -69,11 +118,31 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
     ++r.keyframes_moved;
   }
   for (const auto& mp : absorbed->map().map_points()) {
-    mp->SetPosition(S * mp->position());
+    TransformPoint(mp.get(), S);
     dst.AddMapPoint(mp);
     ++r.points_moved;
   }
   kept->AbsorbTables(absorbed);
+
+  // Refine the transform on the whole overlap before anything is merged.
+  {
+    std::set<KeyframeId> absorbed_ids;
+    for (const auto& kf : absorbed->map().keyframes()) absorbed_ids.insert(kf->id());
+    const auto candidate_points = PointsOfAll(dst, Around(dst, c));
+    if (const auto q_side_from_c_side =
+            RefineOverlap(dst, Around(dst, q), candidate_points, *q, &r.overlap_pairs, &r.overlap_inliers)) {
+      // It moves the candidate's side onto the query's; the absorbed map is either one.
+      const Sim3 delta = move_candidate_map ? *q_side_from_c_side : q_side_from_c_side->inverse();
+      for (const KeyframeId id : absorbed_ids) {
+        const auto kf = dst.keyframe(id);
+        kf->SetWorldFromCam(delta.TransformPose(kf->world_from_cam()));
+      }
+      for (const auto& mp : absorbed->map().map_points()) TransformPoint(mp.get(), delta);
+      S = delta * S;
+      r.kept_from_absorbed = S;
+      r.refined = true;
+    }
+  }
 
   // Merge the overlap: the verified matches first, then everything that projects.
   PointFusionResult fusion;

@@ -25,6 +25,8 @@ struct FusionReport {
   int keyframes_moved = 0;
   int points_moved = 0;
   int points_merged = 0;
+  int overlap_pairs = 0, overlap_inliers = 0;  ///< 3D-3D pairs of the overlap refinement
+  bool refined = false;                        ///< the overlap refined the verified Sim(3)
   double seconds = 0.0;
 };
 

@@ -103,6 +103,7 @@ std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     stats_.last_query_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats_.total_query_ms += stats_.last_query_ms;
   }
   return found;
 }

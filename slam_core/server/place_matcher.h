@@ -40,6 +40,7 @@ struct PlaceMatcherStats {
   int64_t inconsistent = 0;   ///< verified, but the next detection disagreed or never came
   int64_t accepted_loops = 0, accepted_fusions = 0;
   double last_query_ms = 0.0;
+  double total_query_ms = 0.0;  ///< database query + verification, summed over queries
 };
 
 class PlaceMatcher {

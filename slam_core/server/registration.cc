@@ -105,8 +105,9 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   }
   int inliers = 0;
   reg.refined = RefinePose(smap, kf.get(), &inliers);
-  if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
-    UpdateScale(handler, data, smap, *kf);
+  if (reg.refined) {
+    smap->MarkSettled({data.id});
+    if (reg.placement == RegisteredKeyframe::Placement::kPredecessor) UpdateScale(handler, data, smap, *kf);
   }
   const SE3 final_pose = kf->world_from_cam();
   stack_->EditHandler(agent_, data.segment, [&](AgentHandler* h) {
@@ -135,7 +136,11 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers) 
   if (static_cast<int>(obs.size()) < options_.refine_min_inliers) return false;
   SE3 pose = kf->world_from_cam();
   const opt::OptimizationSummary s = opt::OptimizePose(kf->camera(), obs, &pose);
-  if (!s.usable || s.num_inliers < options_.refine_min_inliers) return false;
+  // Most links must agree: a placement far off (or wrong links) would converge to
+  // something wrong, and its outliers must not be erased then.
+  if (!s.usable || s.num_inliers < options_.refine_min_inliers || 2 * s.num_inliers < static_cast<int>(obs.size())) {
+    return false;
+  }
   kf->SetWorldFromCam(pose);
   *inliers = s.num_inliers;
   // Outlier links would pull later optimizations: drop them (the agent's link was wrong or

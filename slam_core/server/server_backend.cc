@@ -252,7 +252,9 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
     e.other_map = r.absorbed;
     e.seconds = r.seconds;
     e.detail = "scale " + std::to_string(r.kept_from_absorbed.scale()) + ", " + std::to_string(r.keyframes_moved) +
-               " keyframes moved, " + std::to_string(r.points_merged) + " points merged";
+               " keyframes moved, " + std::to_string(r.points_merged) + " points merged, overlap " +
+               (r.refined ? "refined on " : "not refined, ") + std::to_string(r.overlap_inliers) + "/" +
+               std::to_string(r.overlap_pairs) + " point pairs";
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.fusions;
@@ -382,6 +384,11 @@ void ServerBackend::Stop() {
   NotifyIdleChange();
 }
 
+void ServerBackend::Resume() {
+  stopping_ = false;
+  abort_ba_ = false;
+}
+
 void ServerBackend::ProcessAllQueued() {
   for (;;) {
     bool worked = false;
@@ -440,6 +447,22 @@ BackendStats ServerBackend::stats() const {
   }
   s.place = matcher_.stats();
   return s;
+}
+
+QueueDepths ServerBackend::queue_depths() const {
+  QueueDepths d;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    for (const auto& [a, q] : queues_) d.agent_batches[a] = q.batches.size() + (q.busy ? 1 : 0);
+  }
+  {
+    std::lock_guard<std::mutex> lock(pr_mutex_);
+    d.place_recognition = pr_queue_.size() + (pr_busy_ ? 1 : 0);
+  }
+  std::lock_guard<std::mutex> lock(opt_mutex_);
+  d.global_ba_pending = ba_pending_.size();
+  d.global_ba_running = ba_running_.valid();
+  return d;
 }
 
 std::vector<ServerEvent> ServerBackend::events() const {

@@ -76,6 +76,14 @@ struct BackendStats {
   PlaceMatcherStats place;
 };
 
+/// Work waiting in each stage (status displays, benchmarks).
+struct QueueDepths {
+  std::map<AgentId, size_t> agent_batches;
+  size_t place_recognition = 0;
+  size_t global_ba_pending = 0;
+  bool global_ba_running = false;
+};
+
 struct AgentAcks {
   std::vector<KeyframeId> keyframes;
   std::vector<MapPointId> map_points;
@@ -115,8 +123,12 @@ class ServerBackend {
   bool RunHandlerOnce(AgentId agent, std::chrono::milliseconds timeout);
   bool RunPlaceRecognitionOnce(std::chrono::milliseconds timeout);
   bool RunOptimizationOnce(std::chrono::milliseconds timeout);
-  /// Wakes every waiting stage and aborts a running global BA (shutdown).
+  /// Wakes every waiting stage and aborts a running global BA (shutdown); stages return
+  /// at once until Resume().
   void Stop();
+  /// Clears Stop() once the stage threads are joined, so the back-end can be driven again
+  /// (saved, processed on one thread, or given new threads).
+  void Resume();
   /// One thread, fixed order: every queued batch, then place recognition, then the pending
   /// global BAs and redundancy steps. Deterministic for a given input order.
   void ProcessAllQueued();
@@ -133,6 +145,7 @@ class ServerBackend {
 
   // Inspection.
   BackendStats stats() const;
+  QueueDepths queue_depths() const;
   std::vector<ServerEvent> events() const;
   std::vector<MapSummary> Maps() const;
   std::vector<AgentId> agents() const;

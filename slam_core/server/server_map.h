@@ -33,8 +33,10 @@ struct ServerKeyframeInfo {
   SE3 pred_from_cam;        ///< as received, VO scale (updates replace it)
   SE3 parent_from_cam;
   SE3 segment_from_cam;     ///< the agent's VO pose when sent
-  /// Set once a loop correction, fusion or global BA moved the keyframe: from then on the
-  /// server's estimate wins over the agent's later local-BA updates.
+  /// Set once the server optimized the keyframe itself (refined against its map at
+  /// registration, local BA, loop correction, global BA): from then on the server's estimate
+  /// wins over the agent's later local-BA updates, which carry no observation the server
+  /// does not have. Until then those updates are the best pose there is.
   bool settled = false;
 };
 

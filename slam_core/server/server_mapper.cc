@@ -41,6 +41,11 @@ ServerMappingReport ServerMapper::Process(ServerMap* smap, const std::shared_ptr
     ba.num_threads = 1;
     const MapBaReport rep = BundleAdjustKeyframes(&map, window, options_.local_ba_max_fixed, ba, true, nullptr);
     r.local_ba = rep.summary.usable;
+    if (r.local_ba) {
+      std::vector<KeyframeId> ids;
+      for (const auto& k : window) ids.push_back(k->id());
+      smap->MarkSettled(ids);
+    }
     r.local_ba_outliers = rep.outliers_removed;
     map.UpdateConnections(kf->id());
   }

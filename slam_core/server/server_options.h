@@ -16,9 +16,9 @@ struct RegistrationOptions {
   double scale_kappa = 0.05;
   /// A scale sample needs a received translation of at least this share of the keyframe's
   /// median scene depth (shorter baselines make |t_after| / |t_received| noise).
-  double scale_min_baseline_depth_ratio = 0.05;
+  double scale_min_baseline_depth_ratio = 0.01;
   /// Scale samples outside [1/x, x] of the current factor are outliers and ignored.
-  double scale_max_step = 1.5;
+  double scale_max_step = 2.0;
   int refine_min_inliers = 15;  ///< pose refinement against the map needs this many inliers
   /// Points whose reference keyframe has not arrived wait for it, at most this many per agent.
   int max_pending_points = 20000;

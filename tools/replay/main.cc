@@ -14,6 +14,7 @@
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
+#include "tools/replay/batch_recording.h"
 #include "tools/replay/replay_report.h"
 
 #ifndef CCM_DEFAULT_VOCABULARY
@@ -29,7 +30,7 @@ struct Args {
   std::string format = "auto";
   std::string vocabulary = CCM_DEFAULT_VOCABULARY;
   std::string out = "replay-out";
-  std::string save_map, load_map;
+  std::string save_map, load_map, record;
   ccm::replay::ReplayOptions replay;
   bool no_sharing = false, no_redundancy = false, no_final_ba = false;
 };
@@ -125,6 +126,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-final-ba", a.no_final_ba, "skip the global BA of every map at the end");
   app.add_option("--load-map", a.load_map, "start from a saved map stack");
   app.add_option("--save-map", a.save_map, "save the map stack at the end");
+  app.add_option("--record", a.record, "write every agent batch to this file (replayable without the VO)");
   CLI11_PARSE(app, argc, argv);
   a.replay.map_sharing = !a.no_sharing;
   a.replay.server.redundancy.enabled = !a.no_redundancy;
@@ -148,6 +150,8 @@ int main(int argc, char** argv) {
   }
   spdlog::info("replaying {} agents ({}), vocabulary {} words", inputs.size(), a.replay.threaded ? "threaded" : "deterministic",
                vocab->num_words());
+  ccm::replay::Recording recording;
+  if (!a.record.empty()) a.replay.on_batch = [&recording](const ccm::AgentBatch& b) { recording.batches.push_back(b); };
   const auto result = ccm::replay::RunReplay(std::move(inputs), a.replay, backend.get(), [](const auto& p) {
     size_t kfs = 0;
     for (const auto& m : p.maps) kfs += m.keyframes;
@@ -159,6 +163,10 @@ int main(int argc, char** argv) {
   PrintSummary(result, evaluation);
   if (!ccm::replay::WriteReplayOutputs(a.out, result, evaluation, *backend, &error)) return Fail(error, 1);
   if (!a.save_map.empty() && !backend->Save(a.save_map, &error)) return Fail(error, 1);
+  if (!a.record.empty()) {
+    ccm::replay::RecordAgents(result, &recording);
+    if (!ccm::replay::SaveRecording(recording, a.record, &error)) return Fail(error, 1);
+  }
   std::printf("outputs in %s (summary.json, *_keyframes.tum, map.ply, map_top.png)\n", a.out.c_str());
   return 0;
 }

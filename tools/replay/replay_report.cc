@@ -105,6 +105,12 @@ bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, cons
       *error = s.message();
       return false;
     }
+    if (!a.ground_truth.empty()) {
+      if (const IoStatus s = WriteTumTrajectory(dir + "/" + a.name + "_ground_truth.tum", a.ground_truth); !s.ok()) {
+        *error = s.message();
+        return false;
+      }
+    }
     const AgentScore& sc = ev.agents[i];
     const auto counters = result.stats.agents.count(a.id) ? result.stats.agents.at(a.id) : AgentCounters{};
     agents.push_back({{"name", a.name},

@@ -159,7 +159,13 @@ class Session {
     a->last_send_ns = stamp_ns;
     AgentBatch batch = a->packer->Pack(a->vo->TakeChanges(), stamp_ns);
     const KeyframeId ref = batch.reference_kf;
-    if (!batch.empty()) backend_->Submit(std::move(batch));
+    if (!batch.empty()) {
+      if (o_.on_batch) {
+        std::lock_guard<std::mutex> lock(batch_mutex_);
+        o_.on_batch(batch);
+      }
+      backend_->Submit(std::move(batch));
+    }
     if (!o_.threaded) backend_->ProcessAllQueued();
     a->acks.Add(backend_->TakeAcks(a->input.id).keyframes);
     if (o_.map_sharing && ref.valid()) {
@@ -212,6 +218,7 @@ class Session {
   const Clock::time_point start_ = Clock::now();
   std::mutex progress_mutex_;
   Clock::time_point last_progress_ = Clock::now();
+  std::mutex batch_mutex_;  // serializes on_batch across agent threads
   std::mutex done_mutex_;
   std::condition_variable done_cv_;
   size_t finished_ = 0;

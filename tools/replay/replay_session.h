@@ -35,6 +35,9 @@ struct ReplayOptions {
   int64_t max_frames = -1;       ///< per agent (-1: all)
   bool final_global_ba = true;   ///< one more global BA of every map at the end
   double progress_period_s = 2.0;
+  /// Sees every batch just before it is submitted (a Recording, a test probe). Threaded
+  /// replays call it from the agents' threads, one at a time.
+  std::function<void(const AgentBatch&)> on_batch;
   std::string Validate() const;
 };
 

@@ -1,0 +1,227 @@
+// Benchmark (not a test) of the server back-end on recorded agent streams (ccm_replay
+// --record, or the hall3 recording ServerScenario.Hall3 leaves in the build tree):
+//  1. registration + server mapping ms per keyframe, place recognition ms per keyframe;
+//  2. global BA seconds vs keyframes (100..1000; copies of the team are added to reach 1000);
+//  3. how many agents' streams the server keeps up with: N agents (copies of the recorded
+//     team with their own ids, each starting 2 s after the previous) are played at their
+//     recorded rate into the threaded back-end; it keeps up if the backlog stays bounded and
+//     the queues drain within a few seconds after the last batch.
+// Usage: bench_server [--recording FILE] [--agents 3,6,8,10,12] [--speed 1] [--skip-ba]
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <thread>
+
+#include "server_runtime/backend_runner.h"
+#include "slam_core/eval/metrics.h"
+#include "slam_core/optimization/bundle_adjustment.h"
+#include "slam_core/place_recognition/vocabulary_io.h"
+#include "tools/replay/batch_recording.h"
+
+namespace {
+
+using namespace ccm;
+using Clock = std::chrono::steady_clock;
+
+double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+template <typename IdT>
+IdT Remap(IdT id, int group, int team) {
+  if (!id.valid()) return id;
+  return IdT::Make(static_cast<AgentId>(id.agent() + group * team), id.counter());
+}
+
+// Copy `group` of the recorded team: every id moves to agent + group * team.
+AgentBatch CloneBatch(const AgentBatch& b, int group, int team) {
+  AgentBatch c = b;
+  c.agent = static_cast<AgentId>(b.agent + group * team);
+  c.segment = Remap(b.segment, group, team);
+  c.reference_kf = Remap(b.reference_kf, group, team);
+  for (auto& k : c.keyframes) {
+    k.id = Remap(k.id, group, team), k.segment = Remap(k.segment, group, team);
+    k.predecessor = Remap(k.predecessor, group, team), k.parent = Remap(k.parent, group, team);
+    for (auto& l : k.point_links) l.second = Remap(l.second, group, team);
+  }
+  for (auto& m : c.map_points) {
+    m.id = Remap(m.id, group, team), m.segment = Remap(m.segment, group, team);
+    m.reference_kf = Remap(m.reference_kf, group, team);
+    for (auto& o : m.observations) o.first = Remap(o.first, group, team);
+  }
+  for (auto& u : c.keyframe_updates) {
+    u.id = Remap(u.id, group, team), u.segment = Remap(u.segment, group, team);
+    u.predecessor = Remap(u.predecessor, group, team), u.parent = Remap(u.parent, group, team);
+  }
+  for (auto& u : c.map_point_updates) u.id = Remap(u.id, group, team), u.reference_kf = Remap(u.reference_kf, group, team);
+  return c;
+}
+
+// The first `agents` agents' batches (copies of the team as needed), in data-time order,
+// each copy's agent k delayed by 2 s * k.
+std::vector<std::pair<int64_t, AgentBatch>> Schedule(const replay::Recording& rec, int agents) {
+  const int team = static_cast<int>(rec.agents.size());
+  int64_t t0 = INT64_MAX;
+  for (const auto& b : rec.batches) t0 = std::min(t0, b.stamp_ns);
+  std::vector<std::pair<int64_t, AgentBatch>> out;
+  for (int k = 0; k < agents; ++k) {
+    const int group = k / team;
+    const AgentId original = rec.agents[k % team].id;
+    for (const auto& b : rec.batches) {
+      if (b.agent != original) continue;
+      out.emplace_back(b.stamp_ns - t0 + static_cast<int64_t>(k) * 2'000'000'000, CloneBatch(b, group, team));
+    }
+  }
+  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return out;
+}
+
+void RegistrationTimes(const replay::Recording& rec, std::shared_ptr<const Vocabulary> vocab) {
+  ServerBackend backend(vocab, ServerOptions{});
+  const double cpu0 = CpuSeconds();
+  const auto r = replay::PlayRecording(rec, &backend, {});
+  const double cpu = CpuSeconds() - cpu0;
+  std::vector<double> ms;
+  int64_t kfs = 0;
+  for (const auto& [a, c] : r.stats.agents) {
+    ms.insert(ms.end(), c.keyframe_ms.begin(), c.keyframe_ms.end());
+    kfs += c.keyframes_registered;
+  }
+  double ba_s = 0;
+  for (const auto& [n, s] : r.stats.global_ba_seconds) ba_s += s;
+  std::printf("\n## 1. Per keyframe (%lld keyframes, %zu agents, one thread)\n\n", static_cast<long long>(kfs),
+              rec.agents.size());
+  std::printf("| stage | median | p95 | mean |\n|---|---|---|---|\n");
+  std::printf("| registration + server mapping [ms] | %.1f | %.1f | %.1f |\n", Percentile(ms, 0.5), Percentile(ms, 0.95),
+              ComputeStats(ms).mean);
+  std::printf("| place recognition (query + verification) [ms] | - | - | %.1f |\n",
+              r.stats.place.total_query_ms / std::max<int64_t>(1, r.stats.place.queries));
+  std::printf("| global BA (%lld runs) [s] | - | - | %.2f |\n", static_cast<long long>(r.stats.global_ba_applied),
+              ba_s / std::max<int64_t>(1, r.stats.global_ba_applied));
+  std::printf("| everything, CPU per keyframe [ms] | - | - | %.1f |\n", 1000.0 * cpu / std::max<int64_t>(1, kfs));
+  std::printf("fusions %lld, loops %lld, wall %.1f s\n", static_cast<long long>(r.stats.fusions),
+              static_cast<long long>(r.stats.loops), r.wall_s);
+}
+
+void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabulary> vocab) {
+  // Two copies of the team, no keyframe removal: enough keyframes for 1000.
+  ServerOptions o;
+  o.redundancy.enabled = false;
+  o.mapping.duplicate_distance_ratio = 0.0;
+  ServerBackend backend(vocab, o);
+  for (const auto& [t, b] : Schedule(rec, 2 * static_cast<int>(rec.agents.size()))) {
+    backend.Submit(b);
+    backend.ProcessAllQueued();
+  }
+  std::shared_ptr<ServerMap> biggest;
+  for (const auto& m : backend.stack().Maps()) {
+    if (!biggest || m->map().num_keyframes() > biggest->map().num_keyframes()) biggest = m;
+  }
+  auto kfs = biggest->map().keyframes();
+  std::sort(kfs.begin(), kfs.end(), [](const auto& a, const auto& b) { return a->stamp_ns() < b->stamp_ns(); });
+  std::printf("\n## 2. Global BA vs keyframes (map grown in time order; 10 iterations, 2 threads)\n\n");
+  std::printf("| keyframes | points | observations | wall [s] | CPU [s] |\n|---|---|---|---|---|\n");
+  for (const size_t n : {100, 200, 400, 600, 800, 1000}) {
+    if (n > kfs.size()) {
+      std::printf("| %zu | (map has only %zu keyframes) | | | |\n", n, kfs.size());
+      continue;
+    }
+    opt::BundleProblem p;
+    std::unordered_map<KeyframeId, int> index;
+    for (size_t i = 0; i < n; ++i) {
+      if (p.cameras.empty()) p.cameras.push_back(kfs[i]->camera_ptr());
+      index.emplace(kfs[i]->id(), static_cast<int>(i));
+      p.poses.push_back({kfs[i]->id().packed(), kfs[i]->world_from_cam(), i == 0, 0});
+    }
+    for (const auto& mp : biggest->map().map_points()) {
+      std::vector<opt::Observation> obs;
+      for (const auto& [kf, idx] : mp->observations()) {
+        const auto it = index.find(kf);
+        if (it == index.end()) continue;
+        const Keypoint& k = kfs[it->second]->features().keypoints[idx];
+        obs.push_back({it->second, static_cast<int>(p.points.size()), Eigen::Vector2d(k.u, k.v),
+                       kfs[it->second]->pyramid().scale[k.level]});
+      }
+      if (obs.size() < 2) continue;
+      p.points.push_back({mp->id().packed(), mp->position(), false});
+      p.observations.insert(p.observations.end(), obs.begin(), obs.end());
+    }
+    opt::BundleAdjusterOptions ba = opt::GlobalBaDefaults();
+    ba.robust_iterations = 10;
+    const auto w0 = Clock::now();
+    const double c0 = CpuSeconds();
+    const auto s = opt::BundleAdjust(&p, ba);
+    std::printf("| %zu | %zu | %zu | %.2f | %.2f |%s\n", n, p.points.size(), p.observations.size(),
+                std::chrono::duration<double>(Clock::now() - w0).count(), CpuSeconds() - c0, s.usable ? "" : " failed");
+  }
+}
+
+void Throughput(const replay::Recording& rec, std::shared_ptr<const Vocabulary> vocab, const std::vector<int>& counts,
+                double speed) {
+  std::printf("\n## 3. Agents' streams at %.1fx their recorded rate, threaded back-end on this machine\n\n", speed);
+  std::printf("| agents | keyframes/s offered | max backlog [batches] | drain after last [s] | CPU load [cores] | keeps up |\n");
+  std::printf("|---|---|---|---|---|---|\n");
+  for (const int n : counts) {
+    const auto schedule = Schedule(rec, n);
+    size_t kfs = 0;
+    for (const auto& [t, b] : schedule) kfs += b.keyframes.size();
+    const double span_s = schedule.back().first * 1e-9 / speed;
+    ServerBackend backend(vocab, ServerOptions{});
+    size_t max_backlog = 0;
+    const double c0 = CpuSeconds();
+    const auto start = Clock::now();
+    {
+      server::BackendRunner runner(&backend);
+      for (const auto& [t, b] : schedule) {
+        std::this_thread::sleep_until(start + std::chrono::nanoseconds(static_cast<int64_t>(t / speed)));
+        backend.Submit(b);
+        size_t backlog = 0;
+        for (const auto& [a, q] : backend.queue_depths().agent_batches) backlog += q;
+        max_backlog = std::max(max_backlog, backlog);
+      }
+      const auto last = Clock::now();
+      backend.WaitUntilIdle();
+      const double drain = std::chrono::duration<double>(Clock::now() - last).count();
+      const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+      runner.Stop();
+      const double load = (CpuSeconds() - c0) / wall;
+      const bool ok = drain < 10.0 && max_backlog <= static_cast<size_t>(4 * n);
+      std::printf("| %d | %.1f | %zu | %.1f | %.2f | %s |\n", n, kfs / span_s, max_backlog, drain, load, ok ? "yes" : "no");
+      std::fflush(stdout);
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string recording = CCM_TEST_RECORDING, vocab_path = CCM_SIM_VOCAB_FILE;
+  std::vector<int> agents = {3, 6, 8, 10, 12};
+  double speed = 1.0;
+  bool skip_ba = false, skip_throughput = false;
+  CLI::App app{"bench_server: server back-end timings on recorded agent streams"};
+  app.add_option("--recording", recording, "ccm_replay --record file")->capture_default_str();
+  app.add_option("--vocab", vocab_path, "vocabulary the recording was made with")->capture_default_str();
+  app.add_option("--agents", agents, "agent counts for the throughput table")->delimiter(',');
+  app.add_option("--speed", speed, "playback speed of the streams (1 = as recorded)")->capture_default_str();
+  app.add_flag("--skip-ba", skip_ba, "skip the global BA table");
+  app.add_flag("--skip-throughput", skip_throughput, "skip the throughput table");
+  CLI11_PARSE(app, argc, argv);
+  std::string error;
+  auto rec = replay::LoadRecording(recording, &error);
+  if (!rec) {
+    std::fprintf(stderr, "bench_server: %s\n  make one: ccm_replay --sim hall3 --record %s\n", error.c_str(),
+                 recording.c_str());
+    return 2;
+  }
+  auto loaded = LoadVocabularyFile(vocab_path, &error);
+  if (!loaded) {
+    std::fprintf(stderr, "bench_server: %s\n", error.c_str());
+    return 2;
+  }
+  auto vocab = std::make_shared<const Vocabulary>(std::move(*loaded));
+  std::printf("# bench_server: %s (%zu agents, %zu batches)\n", recording.c_str(), rec->agents.size(), rec->batches.size());
+  RegistrationTimes(*rec, vocab);
+  if (!skip_ba) GlobalBaTimes(*rec, vocab);
+  if (!skip_throughput) Throughput(*rec, vocab, agents, speed);
+  return 0;
+}

@@ -1,0 +1,128 @@
+// Saving and loading the map stack: the loaded stack equals the saved one (counts, poses and
+// positions to 1e-9, associations, graph, handlers), corrupted or truncated files are
+// refused with a clear message, and registration continues on the loaded stack.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "tests/slam_core/server/server_test_util.h"
+
+namespace ccm {
+namespace {
+
+using testing::LoadSim;
+using testing::SimVocabulary;
+
+std::string TempPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
+}
+
+void ExpectEqualStacks(const ServerBackend& a, const ServerBackend& b) {
+  const auto ma = a.stack().Maps(), mb = b.stack().Maps();
+  ASSERT_EQ(ma.size(), mb.size());
+  for (size_t i = 0; i < ma.size(); ++i) {
+    const Map& x = ma[i]->map();
+    const Map& y = mb[i]->map();
+    EXPECT_EQ(ma[i]->id(), mb[i]->id());
+    ASSERT_EQ(x.num_keyframes(), y.num_keyframes());
+    ASSERT_EQ(x.num_map_points(), y.num_map_points());
+    EXPECT_EQ(ma[i]->anchors().size(), mb[i]->anchors().size());
+    for (const auto& kf : x.keyframes()) {
+      const auto other = y.keyframe(kf->id());
+      ASSERT_NE(other, nullptr);
+      const SE3 d = kf->world_from_cam().inverse() * other->world_from_cam();
+      EXPECT_LT(d.translation().norm(), 1e-9);
+      EXPECT_LT(1.0 - std::abs(d.rotation().w()), 1e-9);
+      EXPECT_EQ(kf->map_points(), other->map_points());
+      EXPECT_EQ(kf->covisibility(), other->covisibility());
+      EXPECT_EQ(kf->parent(), other->parent());
+      EXPECT_EQ(kf->loop_edges(), other->loop_edges());
+      EXPECT_EQ(kf->features().descriptors, other->features().descriptors);
+      EXPECT_EQ(kf->camera().intrinsics().fx, other->camera().intrinsics().fx);
+    }
+    for (const auto& mp : x.map_points()) {
+      const auto other = y.map_point(mp->id());
+      ASSERT_NE(other, nullptr);
+      EXPECT_LT((mp->position() - other->position()).norm(), 1e-9);
+      EXPECT_EQ(mp->observations(), other->observations());
+      EXPECT_EQ(mp->descriptor(), other->descriptor());
+    }
+  }
+  const auto ha = a.stack().Handlers(), hb = b.stack().Handlers();
+  ASSERT_EQ(ha.size(), hb.size());
+  for (size_t i = 0; i < ha.size(); ++i) {
+    EXPECT_EQ(ha[i].map, hb[i].map);
+    EXPECT_EQ(ha[i].last_keyframe, hb[i].last_keyframe);
+    EXPECT_DOUBLE_EQ(ha[i].scale, hb[i].scale);
+    EXPECT_LT((ha[i].map_from_segment.translation() - hb[i].map_from_segment.translation()).norm(), 1e-12);
+  }
+}
+
+TEST(Persistence, SaveLoadGivesAnEqualStackAndRegistrationContinues) {
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  // Two agents, so there are two maps (no overlap yet in 6 s) and two handlers.
+  const testing::VoStream s0 = testing::RunVoStream(sim, 0, 0, 160);
+  const testing::VoStream s1 = testing::RunVoStream(sim, 1, 0, 120);
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  const size_t half = s0.batches.size() / 2;
+  for (size_t i = 0; i < half; ++i) backend.Submit(s0.batches[i]);
+  for (const AgentBatch& b : s1.batches) backend.Submit(b);
+  backend.ProcessAllQueued();
+  ASSERT_GE(backend.Maps().size(), 1u);
+
+  const std::string path = TempPath("ccm_stack.bin");
+  std::string error;
+  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  auto loaded = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error);
+  ASSERT_NE(loaded, nullptr) << error;
+  ExpectEqualStacks(backend, *loaded);
+
+  // The restarted server takes the rest of the flight: it lands in the same map.
+  const size_t before = loaded->AgentTrajectory(1).size();
+  for (size_t i = half; i < s0.batches.size(); ++i) loaded->Submit(s0.batches[i]);
+  loaded->ProcessAllQueued();
+  const auto traj = loaded->AgentTrajectory(1);
+  EXPECT_GT(traj.size(), before + 5);
+  for (const auto& p : traj) EXPECT_EQ(p.map, traj.front().map) << "the agent's segment stays in its map";
+  std::remove(path.c_str());
+}
+
+TEST(Persistence, CorruptedTruncatedAndForeignFilesAreRefused) {
+  const auto sim = LoadSim("hall3");
+  const testing::VoStream s = testing::RunVoStream(sim, 0, 0, 60);
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  for (const AgentBatch& b : s.batches) backend.Submit(b);
+  backend.ProcessAllQueued();
+  const std::string path = TempPath("ccm_stack_bad.bin");
+  std::string error;
+  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  auto write = [&](const std::string& content) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << content;
+  };
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 0x10;
+  write(flipped);
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_NE(error.find("checksum"), std::string::npos) << error;
+  write(bytes.substr(0, bytes.size() - 100));
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_NE(error.find("size mismatch"), std::string::npos) << error;
+  write("not a map stack at all");
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_NE(error.find("not a ccm map stack"), std::string::npos) << error;
+  std::remove(path.c_str());
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_NE(error.find("cannot open"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace ccm

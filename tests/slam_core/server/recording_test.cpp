@@ -1,0 +1,107 @@
+// Server settings compared on the same input: the batches the three hall3 agents sent in
+// ServerScenario.Hall3 (ctest fixture), played into fresh back-ends.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "tests/slam_core/server/server_test_util.h"
+#include "tools/replay/batch_recording.h"
+#include "tools/replay/replay_report.h"
+
+namespace ccm {
+namespace {
+
+using testing::SimVocabulary;
+
+const replay::Recording& Hall3Recording() {
+  static const replay::Recording rec = [] {
+    std::string error;
+    auto r = replay::LoadRecording(CCM_TEST_RECORDING, &error);
+    if (!r) ADD_FAILURE() << error << " (run ServerScenario.Hall3 first: it writes the recording)";
+    return r ? std::move(*r) : replay::Recording{};
+  }();
+  return rec;
+}
+
+replay::ReplayEvaluation Play(const ServerOptions& o, const replay::PlayOptions& p, replay::ReplayResult* out = nullptr,
+                              std::unique_ptr<ServerBackend>* keep = nullptr) {
+  auto backend = std::make_unique<ServerBackend>(SimVocabulary(), o);
+  const replay::ReplayResult r = replay::PlayRecording(Hall3Recording(), backend.get(), p);
+  if (out) *out = r;
+  if (keep) *keep = std::move(backend);
+  return replay::EvaluateReplay(r);
+}
+
+TEST(ServerRecording, RedundancyRemovalThinsTheMapAtASmallAccuracyCost) {
+  ASSERT_FALSE(Hall3Recording().batches.empty());
+  ServerOptions all;
+  all.redundancy.enabled = false;
+  replay::ReplayResult r_all, r_thin;
+  const auto ev_all = Play(all, {}, &r_all);
+  ServerOptions thin;  // theta = 0.98, the default
+  const auto ev_thin = Play(thin, {}, &r_thin);
+  int64_t registered = 0;
+  for (const auto& [a, c] : r_thin.stats.agents) registered += c.keyframes_registered;
+  const double removed = static_cast<double>(r_thin.stats.keyframes_removed) / registered;
+  std::printf("  theta 0.98: removed %lld of %lld keyframes (%.1f%%); ATE %.4f m -> %.4f m; global BA %.1f s -> %.1f s\n",
+              static_cast<long long>(r_thin.stats.keyframes_removed), static_cast<long long>(registered), 100 * removed,
+              ev_all.collaborative_ate_m.rmse, ev_thin.collaborative_ate_m.rmse,
+              r_all.stats.global_ba_seconds.empty() ? 0.0 : r_all.stats.global_ba_seconds.back().second,
+              r_thin.stats.global_ba_seconds.empty() ? 0.0 : r_thin.stats.global_ba_seconds.back().second);
+  EXPECT_EQ(ev_all.maps, 1u);
+  EXPECT_EQ(ev_thin.maps, 1u);
+  EXPECT_EQ(r_all.stats.keyframes_removed, 0);
+  EXPECT_GE(removed, 0.10);
+  EXPECT_LE(ev_thin.collaborative_ate_m.rmse, 1.10 * ev_all.collaborative_ate_m.rmse);
+  EXPECT_GT(ev_thin.collaborative_ate_m.count, ev_all.collaborative_ate_m.count * 95 / 100)
+      << "removed keyframes stay in the trajectories through their anchors";
+}
+
+TEST(ServerRecording, SavedHalfWayTheReloadedStackFusesAndClosesLoopsOn) {
+  const replay::Recording& rec = Hall3Recording();
+  ASSERT_FALSE(rec.batches.empty());
+  // Stop after the first fusion's data but well before the end.
+  const size_t half = rec.batches.size() * 2 / 5;
+  ServerOptions o;
+  std::unique_ptr<ServerBackend> first;
+  replay::PlayOptions p1;
+  p1.last = half;
+  p1.final_global_ba = false;
+  Play(o, p1, nullptr, &first);
+  const auto before = first->stats();
+  const std::string path = (std::filesystem::temp_directory_path() / "ccm_recording_half.bin").string();
+  std::string error;
+  ASSERT_TRUE(first->Save(path, &error)) << error;
+  auto loaded = ServerBackend::Load(path, SimVocabulary(), o, &error);
+  ASSERT_NE(loaded, nullptr) << error;
+  replay::PlayOptions p2;
+  p2.first = half;
+  const replay::ReplayResult r = replay::PlayRecording(rec, loaded.get(), p2);
+  const auto ev = replay::EvaluateReplay(r);
+  std::printf("  before save: %zu maps, %lld fusions, %lld loops; after reload: +%lld fusions, +%lld loops, ATE %.4f m\n",
+              first->Maps().size(), static_cast<long long>(before.fusions), static_cast<long long>(before.loops),
+              static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops), ev.collaborative_ate_m.rmse);
+  EXPECT_GE(r.stats.fusions + r.stats.loops, 1) << "place recognition works on the reloaded database";
+  EXPECT_EQ(ev.maps, 1u);
+  EXPECT_LE(ev.collaborative_ate_percent, 0.1);
+  std::filesystem::remove(path);
+}
+
+TEST(ServerRecording, ParallelHandlersBuildTheSameQualityMap) {
+  // One handler thread per agent registers into the shared map concurrently with place
+  // recognition and global BA (BackendRunner), as ccm_server does.
+  ASSERT_FALSE(Hall3Recording().batches.empty());
+  replay::PlayOptions p;
+  p.threaded = true;
+  replay::ReplayResult r;
+  const auto ev = Play(ServerOptions{}, p, &r);
+  std::printf("  threaded: maps %zu, fusions %lld, loops %lld, ATE %.4f m (%.4f%%), global BA aborted %lld\n", ev.maps,
+              static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops), ev.collaborative_ate_m.rmse,
+              ev.collaborative_ate_percent, static_cast<long long>(r.stats.global_ba_aborted));
+  EXPECT_EQ(ev.maps, 1u);
+  EXPECT_LE(ev.collaborative_ate_percent, 0.1);
+}
+
+}  // namespace
+}  // namespace ccm

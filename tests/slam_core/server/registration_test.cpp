@@ -1,0 +1,209 @@
+// Registration and the agent -> server value types on real VO output (hall3 excerpts):
+// relative poses reproduce the VO map, the server reproduces the agent's trajectory from
+// them, points that arrive before their keyframe wait, lambda follows a scale change, and
+// malformed input is counted and dropped.
+#include <gtest/gtest.h>
+
+#include "slam_core/eval/alignment.h"
+#include "slam_core/eval/metrics.h"
+#include "tests/slam_core/server/server_test_util.h"
+
+namespace ccm {
+namespace {
+
+using testing::LoadSim;
+using testing::RunVoStream;
+using testing::SimVocabulary;
+
+// 10 s of hall3 agent 0: 200 frames, a few dozen keyframes.
+const testing::VoStream& Hall3Stream() {
+  static const testing::VoStream stream = RunVoStream(LoadSim("hall3"), 0, 0, 200);
+  return stream;
+}
+
+TEST(ChangePacker, RelativePosesReproduceTheVoMap) {
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  const testing::VoStream s = RunVoStream(sim, 0, 0, 120, /*period_frames=*/1000);
+  ASSERT_EQ(s.batches.size(), 1u);
+  const Map& map = *s.final_map;
+  const AgentBatch& b = s.batches.front();
+  ASSERT_GE(b.keyframes.size(), 5u);
+  EXPECT_TRUE(b.keyframe_updates.empty()) << "nothing was sent before: all keyframes go out in full";
+  int checked = 0;
+  for (const KeyframeData& k : b.keyframes) {
+    EXPECT_EQ(ValidateKeyframeData(k, b.agent), "");
+    const auto kf = map.keyframe(k.id);
+    ASSERT_NE(kf, nullptr);
+    if (const auto pred = k.predecessor.valid() ? map.keyframe(k.predecessor) : nullptr) {
+      const SE3 rebuilt = pred->world_from_cam() * k.pred_from_cam;
+      EXPECT_LT((rebuilt.translation() - kf->camera_center()).norm(), 1e-9);
+      EXPECT_LT(pred->id(), k.id);
+      ++checked;
+    }
+    for (const auto& [idx, mp] : k.point_links) EXPECT_EQ(kf->MapPointAt(idx), mp);
+  }
+  EXPECT_EQ(checked + 1, static_cast<int>(b.keyframes.size())) << "every keyframe but the first has a predecessor";
+  for (const MapPointData& m : b.map_points) {
+    EXPECT_EQ(ValidateMapPointData(m, b.agent), "");
+    const auto ref = map.keyframe(m.reference_kf);
+    ASSERT_NE(ref, nullptr);
+    EXPECT_LT((ref->world_from_cam() * m.position_ref - map.map_point(m.id)->position()).norm(), 1e-9);
+  }
+}
+
+TEST(Registration, ServerReproducesTheAgentsKeyframeTrajectory) {
+  const testing::VoStream& s = Hall3Stream();
+  ServerOptions o;
+  ServerBackend backend(SimVocabulary(), o);
+  for (const AgentBatch& b : s.batches) {
+    ASSERT_EQ(backend.Submit(b), 0);
+    backend.ProcessAllQueued();
+  }
+  const auto server = backend.AgentTrajectory(1);
+  ASSERT_GE(server.size(), s.keyframes.size() * 9 / 10);
+  // The segment's first keyframe defines the server map's frame, so server and VO poses are
+  // directly comparable; they differ only by the server's refinement and mapping.
+  std::vector<Eigen::Vector3d> est, gt;
+  double worst = 0.0;
+  for (const ServerKeyframePose& p : server) {
+    for (const KeyframePose& v : s.keyframes) {
+      if (v.id != p.id) continue;
+      worst = std::max(worst, (v.world_from_cam.translation() - p.world_from_cam.translation()).norm());
+      est.push_back(p.world_from_cam.translation());
+      gt.push_back(testing::GroundTruthAt(s.ground_truth, p.stamp_ns)->translation());
+    }
+  }
+  const double path = PathLengthM([&] {
+    std::vector<SE3> poses;
+    for (const auto& g : s.ground_truth) poses.push_back(g.world_from_cam);
+    return poses;
+  }());
+  std::string error;
+  const auto align = UmeyamaAlignment(est, gt, true, &error);
+  ASSERT_TRUE(align) << error;
+  std::vector<double> errors;
+  for (size_t i = 0; i < est.size(); ++i) errors.push_back((*align * est[i] - gt[i]).norm());
+  const double ate = ComputeStats(errors).rmse;
+  const double vo_scale_path = path / align->scale();  // path in VO units
+  EXPECT_LT(worst, 0.02 * vo_scale_path) << "server poses stay within 2% of the path of the VO's";
+  EXPECT_LT(ate, 0.005 * path) << "ATE " << ate << " m over " << path << " m";
+  const BackendStats st = backend.stats();
+  EXPECT_EQ(st.agents.at(1).rejected, 0);
+  EXPECT_GT(st.agents.at(1).updates_applied, 0) << "the agent's local-BA updates reach the server";
+}
+
+TEST(Registration, PointsArrivingBeforeTheirKeyframeWaitAndLand) {
+  const testing::VoStream& s = Hall3Stream();
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  size_t points = 0;
+  for (const AgentBatch& b : s.batches) {
+    // Points first (as DDS may deliver them), keyframes in a second message.
+    AgentBatch only_points = b, only_keyframes = b;
+    only_points.keyframes.clear();
+    only_keyframes.map_points.clear();
+    points += b.map_points.size();
+    backend.Submit(only_points);
+    backend.Submit(only_keyframes);
+    backend.ProcessAllQueued();
+  }
+  const BackendStats st = backend.stats();
+  EXPECT_GE(st.agents.at(1).points_registered, static_cast<int64_t>(points * 95 / 100));
+  size_t acked = 0;
+  for (const MapPointId id : backend.TakeAcks(1).map_points) acked += id.valid();
+  EXPECT_GE(acked, points * 95 / 100) << "waiting points are acknowledged once they land";
+}
+
+TEST(Registration, ScaleFactorFollowsAScaleChangeOfTheVo) {
+  // From the middle on, the agent's VO reports every translation 1.5x longer (as after a
+  // scale jump): refinement against the server's points measures the true motion, and the
+  // handler's lambda moves from 1 towards 1/1.5 (Forster et al.'s estimator).
+  const testing::VoStream& s = Hall3Stream();
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  const double k = 1.5;
+  for (size_t i = 0; i < s.batches.size(); ++i) {
+    AgentBatch b = s.batches[i];
+    if (i >= s.batches.size() / 3) {
+      for (auto& kf : b.keyframes) {
+        kf.pred_from_cam = SE3(kf.pred_from_cam.rotation(), kf.pred_from_cam.translation() * k);
+        kf.parent_from_cam = SE3(kf.parent_from_cam.rotation(), kf.parent_from_cam.translation() * k);
+      }
+      for (auto& mp : b.map_points) mp.position_ref *= k;
+      b.keyframe_updates.clear();
+      b.map_point_updates.clear();
+    }
+    backend.Submit(b);
+    backend.ProcessAllQueued();
+  }
+  const auto handlers = backend.stack().HandlersOfAgent(1);
+  ASSERT_EQ(handlers.size(), 1u);
+  EXPECT_LT(handlers[0].scale, 0.9) << "lambda " << handlers[0].scale << " did not move towards " << 1.0 / k;
+  EXPECT_GT(handlers[0].scale, 1.0 / k - 0.05);
+}
+
+TEST(Submit, MalformedItemsAreCountedAndDroppedTheRestIsProcessed) {
+  const testing::VoStream& s = Hall3Stream();
+  AgentBatch b = s.batches.front();
+  ASSERT_GE(b.keyframes.size(), 2u);
+  KeyframeData& bad_index = b.keyframes[1];
+  ASSERT_FALSE(bad_index.point_links.empty());
+  bad_index.point_links.front().first = 100000;
+  EXPECT_NE(ValidateKeyframeData(bad_index, 1).find("out of range"), std::string::npos);
+  KeyframeData foreign = b.keyframes[0];
+  foreign.id = KeyframeId::Make(7, 99);
+  EXPECT_NE(ValidateKeyframeData(foreign, 1).find("belongs to agent 7"), std::string::npos);
+  KeyframeData nan_pose = b.keyframes[0];
+  nan_pose.pred_from_cam = SE3(Eigen::Quaterniond(1, 0, 0, 0), Eigen::Vector3d(NAN, 0, 0));
+  EXPECT_NE(ValidateKeyframeData(nan_pose, 1).find("invalid pose"), std::string::npos);
+  MapPointData bad_point = b.map_points.front();
+  bad_point.position_ref.x() = INFINITY;
+  b.map_points.push_back(bad_point);
+
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  EXPECT_EQ(backend.Submit(b), 2);
+  backend.ProcessAllQueued();
+  const BackendStats st = backend.stats();
+  EXPECT_EQ(st.agents.at(1).rejected, 2);
+  EXPECT_NE(st.agents.at(1).last_rejection.find("out of range"), std::string::npos);
+  EXPECT_EQ(st.agents.at(1).keyframes_registered, static_cast<int64_t>(b.keyframes.size()) - 1);
+}
+
+TEST(Submit, AgentsBeyondMaxAgentsAreRefused) {
+  const testing::VoStream& s = Hall3Stream();
+  ServerOptions o;
+  o.max_agents = 1;
+  ServerBackend backend(SimVocabulary(), o);
+  EXPECT_EQ(backend.Submit(s.batches.front()), 0);
+  AgentBatch other;
+  other.agent = 2;
+  EXPECT_EQ(backend.Submit(other), -1);
+  EXPECT_EQ(backend.stats().batches_rejected, 1);
+  EXPECT_EQ(backend.agents().size(), 1u);
+}
+
+TEST(MapStack, RepointComposesTheFusionSim3AndScale) {
+  MapStack stack(MapOptions{});
+  const MapId seg1 = MapId::Make(1, 1), seg2 = MapId::Make(2, 1);
+  const auto m1 = stack.MapFor(1, seg1);
+  const auto m2 = stack.MapFor(2, seg2);
+  ASSERT_NE(m1->id(), m2->id());
+  const Sim3 before(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(1, 2, 3));
+  stack.EditHandler(2, seg2, [&](AgentHandler* h) {
+    h->map_from_segment = before;
+    h->scale = 0.8;
+  });
+  const Sim3 fusion(2.0, Eigen::Quaterniond(Eigen::AngleAxisd(-0.5, Eigen::Vector3d::UnitX())), Eigen::Vector3d(-4, 0, 1));
+  stack.Repoint(m2->id(), m1->id(), fusion);
+  const auto h = stack.Handler(2, seg2);
+  ASSERT_TRUE(h);
+  EXPECT_EQ(h->map, m1->id());
+  EXPECT_NEAR(h->scale, 1.6, 1e-12);
+  const Eigen::Vector3d p(0.3, -1.0, 2.0);
+  EXPECT_LT((h->map_from_segment * p - fusion * (before * p)).norm(), 1e-12);
+  EXPECT_EQ(stack.GetMap(m2->id()), nullptr);
+  EXPECT_EQ(stack.num_maps(), 1u);
+  EXPECT_EQ(stack.MapFor(2, seg2)->id(), m1->id());
+}
+
+}  // namespace
+}  // namespace ccm

@@ -1,0 +1,180 @@
+// Replay scenarios against the simulator's ground truth: the real VO of every agent and the
+// server back-end in one process (tools/replay), minutes each. ServerScenario.Hall3 also
+// records the agents' batches for the ServerRecording tests (ctest fixture).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <map>
+
+#include "slam_core/eval/alignment.h"
+#include "tests/slam_core/server/server_test_util.h"
+#include "tools/replay/batch_recording.h"
+#include "tools/replay/replay_report.h"
+
+namespace ccm {
+namespace {
+
+using replay::ReplayAgentInput;
+using testing::LoadSim;
+using testing::SimVocabulary;
+
+std::vector<ReplayAgentInput> SimAgents(const std::shared_ptr<const sim::Simulation>& sim, int64_t max_frames = -1) {
+  std::vector<ReplayAgentInput> in;
+  for (int a = 0; a < sim->num_agents(); ++a) {
+    in.push_back({sim->agent_name(a), static_cast<AgentId>(a + 1),
+                  std::make_unique<sim::SimFrameSource>(sim, a, 0, 1, max_frames)});
+  }
+  return in;
+}
+
+void PrintScores(const replay::ReplayResult& r, const replay::ReplayEvaluation& ev) {
+  for (const auto& s : ev.agents) {
+    std::printf("  %s: path %.1f m, standalone ATE %.4f m, collaborative ATE %.4f m, %zu keyframes in the map\n",
+                s.name.c_str(), s.path_m, s.standalone_ate_m.rmse, s.collaborative_ate_m.rmse, s.server_keyframes);
+  }
+  std::printf("  maps %zu, fusions %lld, loops %lld, collaborative ATE %.4f m = %.4f%% of %.1f m, wall %.0f s\n", ev.maps,
+              static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops), ev.collaborative_ate_m.rmse,
+              ev.collaborative_ate_percent, ev.joint_path_m, r.wall_s);
+}
+
+TEST(ServerScenario, Hall3ThreeAgentsFuseCloseLoopsAndBeatStandalone) {
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  replay::ReplayOptions o;
+  replay::Recording recording;
+  o.on_batch = [&](const AgentBatch& b) { recording.batches.push_back(b); };
+  ServerBackend backend(SimVocabulary(), o.server);
+  const replay::ReplayResult r = replay::RunReplay(SimAgents(sim), o, &backend);
+  ASSERT_EQ(r.error, "");
+  const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
+  PrintScores(r, ev);
+  replay::RecordAgents(r, &recording);
+  std::string error;
+  ASSERT_TRUE(replay::SaveRecording(recording, CCM_TEST_RECORDING, &error)) << error;
+
+  EXPECT_EQ(ev.maps, 1u) << "all maps end in one";
+  for (const auto& s : ev.agents) {
+    EXPECT_GT(s.server_keyframes, 20u) << s.name << " is in the final map";
+  }
+  EXPECT_LE(ev.collaborative_ate_percent, 0.1);
+  EXPECT_LT(ev.collaborative_ate_m.rmse, ev.mean_standalone_ate_m)
+      << "collaboration must beat the agents' own VO (mean " << ev.mean_standalone_ate_m << " m)";
+  std::map<AgentId, int> loops;
+  for (const ServerEvent& e : r.events) loops[e.agent] += e.kind == ServerEvent::Kind::kLoop;
+  for (int a = 1; a <= 3; ++a) EXPECT_GE(loops[static_cast<AgentId>(a)], 1) << "no loop closed for agent " << a;
+}
+
+TEST(ServerScenario, Disjoint2NeverFuses) {
+  const auto sim = LoadSim("disjoint2");
+  ASSERT_NE(sim, nullptr);
+  replay::ReplayOptions o;
+  ServerBackend backend(SimVocabulary(), o.server);
+  const replay::ReplayResult r = replay::RunReplay(SimAgents(sim, 900), o, &backend);
+  ASSERT_EQ(r.error, "");
+  std::printf("  disjoint2: maps %zu, fusions %lld, loops %lld, place candidates verified %lld\n", r.maps.size(),
+              static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops),
+              static_cast<long long>(r.stats.place.verified));
+  EXPECT_EQ(r.stats.fusions, 0);
+  EXPECT_EQ(r.maps.size(), 2u);
+  EXPECT_GT(r.stats.place.match_candidates, 0) << "map matching ran (and found nothing to fuse)";
+}
+
+// Sim(3) aligning one agent's keyframes in `map` to the ground truth.
+std::optional<Sim3> AgentAlignment(const ServerBackend& backend, AgentId agent, MapId map, const Trajectory& gt) {
+  std::vector<Eigen::Vector3d> est, truth;
+  for (const ServerKeyframePose& p : backend.AgentTrajectory(agent)) {
+    const auto g = testing::GroundTruthAt(gt, p.stamp_ns);
+    if (p.map != map || !g) continue;
+    est.push_back(p.world_from_cam.translation());
+    truth.push_back(g->translation());
+  }
+  std::string error;
+  if (est.size() < 5) return std::nullopt;
+  return UmeyamaAlignment(est, truth, true, &error);
+}
+
+TEST(ServerScenario, RepeatedFusionsAgreeWithGroundTruth) {
+  // Identical crates and pillars: only true overlaps may fuse. Right after each fusion (no
+  // global BA in between) every agent's part of the fused map must align to the ground
+  // truth with the same Sim(3): scale within 2 %, rotation within 2 degrees.
+  const auto sim = LoadSim("repeated");
+  ASSERT_NE(sim, nullptr);
+  const testing::VoStream a = testing::RunVoStream(sim, 0, 0, -1);
+  const testing::VoStream b = testing::RunVoStream(sim, 1, 0, -1);
+  std::vector<const AgentBatch*> order;
+  for (const auto& x : a.batches) order.push_back(&x);
+  for (const auto& x : b.batches) order.push_back(&x);
+  std::stable_sort(order.begin(), order.end(), [](const auto* x, const auto* y) { return x->stamp_ns < y->stamp_ns; });
+  ServerOptions o;
+  o.optimization.global_ba_after_fusion = false;
+  ServerBackend backend(SimVocabulary(), o);
+  size_t seen_events = 0;
+  int fusions = 0;
+  for (const AgentBatch* batch : order) {
+    backend.Submit(*batch);
+    backend.ProcessAllQueued();
+    const auto events = backend.events();
+    for (; seen_events < events.size(); ++seen_events) {
+      if (events[seen_events].kind != ServerEvent::Kind::kFusion) continue;
+      ++fusions;
+      const MapId map = events[seen_events].map;
+      const auto sa = AgentAlignment(backend, 1, map, a.ground_truth);
+      const auto sb = AgentAlignment(backend, 2, map, b.ground_truth);
+      ASSERT_TRUE(sa && sb);
+      const double scale_diff = std::abs(sa->scale() / sb->scale() - 1.0);
+      const double angle_deg = Eigen::AngleAxisd(sa->rotation().conjugate() * sb->rotation()).angle() * 180.0 / M_PI;
+      std::printf("  fusion %d: scale differs by %.2f%%, rotation by %.2f deg\n", fusions, 100 * scale_diff, angle_deg);
+      EXPECT_LT(scale_diff, 0.02);
+      EXPECT_LT(angle_deg, 2.0);
+    }
+  }
+  std::printf("  repeated: %d fusions, %lld candidates verified, %lld inconsistent detections dropped\n", fusions,
+              static_cast<long long>(backend.stats().place.verified),
+              static_cast<long long>(backend.stats().place.inconsistent));
+  EXPECT_GE(fusions, 1) << "the two aisles overlap: one correct fusion is expected";
+}
+
+// Frames of one source, then of another (a jump): the camera is carried somewhere else.
+class JumpSource final : public FrameSource {
+ public:
+  JumpSource(std::unique_ptr<FrameSource> first, std::unique_ptr<FrameSource> second)
+      : first_(std::move(first)), second_(std::move(second)) {}
+  std::optional<Frame> Next() override {
+    if (auto f = first_->Next()) return f;
+    return second_->Next();
+  }
+  const CameraIntrinsics& intrinsics() const override { return first_->intrinsics(); }
+  int64_t size() const override { return first_->size() + second_->size(); }
+  const std::string& error() const override { return first_->error().empty() ? second_->error() : first_->error(); }
+
+ private:
+  std::unique_ptr<FrameSource> first_, second_;
+};
+
+TEST(ServerScenario, SegmentJumpBothSegmentsEndInTheFusedMap) {
+  // Agent 0 of hall3 flies 15 s, is carried 35 s further along its loop (a place it never
+  // saw), loses tracking, opens a second VO segment and flies on around the loop back to
+  // where it started. Agent 1 flies its own loop. Both segments must end in one map.
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  std::vector<ReplayAgentInput> in;
+  in.push_back({"jumper", 1,
+                std::make_unique<JumpSource>(std::make_unique<sim::SimFrameSource>(sim, 0, 0, 1, 300),
+                                             std::make_unique<sim::SimFrameSource>(sim, 0, 1000, 1, -1))});
+  in.push_back({"agent1", 2, std::make_unique<sim::SimFrameSource>(sim, 1, 0, 1, 700)});
+  replay::ReplayOptions o;
+  ServerBackend backend(SimVocabulary(), o.server);
+  const replay::ReplayResult r = replay::RunReplay(std::move(in), o, &backend);
+  ASSERT_EQ(r.error, "");
+  ASSERT_EQ(r.agents[0].segments, 2) << "the jump must open a second VO segment";
+  const auto handlers = backend.stack().HandlersOfAgent(1);
+  ASSERT_EQ(handlers.size(), 2u) << "one handler per segment";
+  EXPECT_EQ(handlers[0].map, handlers[1].map) << "both segments end in one map";
+  const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
+  PrintScores(r, ev);
+  EXPECT_EQ(ev.maps, 1u);
+  EXPECT_LE(ev.collaborative_ate_percent, 0.2);
+}
+
+}  // namespace
+}  // namespace ccm

@@ -1,0 +1,50 @@
+// A recording of what the agents sent during a replay: every AgentBatch in submission order
+// plus each agent's ground truth and VO keyframe trajectory. Played into a fresh back-end it
+// reproduces the server's input without running the VO again, so tests and benchmarks can
+// compare server settings (redundancy on/off, save/load half-way, N agents' load) on the
+// same keyframe streams. File: magic "CCMRECRD", version, cereal portable binary payload,
+// FNV-1a-64 checksum.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "slam_core/exchange/agent_data.h"
+#include "tools/replay/replay_session.h"
+
+namespace ccm::replay {
+
+struct RecordedAgent {
+  std::string name;
+  AgentId id = 0;
+  int64_t frames = 0, frames_tracked = 0, keyframes_created = 0;
+  int segments = 0;
+  Trajectory ground_truth;
+  Trajectory vo_keyframes;
+};
+
+struct Recording {
+  std::vector<RecordedAgent> agents;
+  std::vector<AgentBatch> batches;  ///< in the order the server received them
+};
+
+/// The agents' part of a replay result (call after RunReplay filled `batches`).
+void RecordAgents(const ReplayResult& result, Recording* recording);
+
+bool SaveRecording(const Recording& recording, const std::string& path, std::string* error);
+std::optional<Recording> LoadRecording(const std::string& path, std::string* error);
+
+struct PlayOptions {
+  size_t first = 0;             ///< batches [first, last) are submitted
+  size_t last = static_cast<size_t>(-1);
+  bool threaded = false;        ///< BackendRunner threads instead of ProcessAllQueued per batch
+  bool final_global_ba = true;
+};
+
+/// Feeds the recorded batches into `backend` and returns a ReplayResult (agents' ground truth
+/// and VO trajectories from the recording, server trajectories from the back-end), so
+/// EvaluateReplay scores it like a live replay.
+ReplayResult PlayRecording(const Recording& recording, ServerBackend* backend, const PlayOptions& options);
+
+}  // namespace ccm::replay
