@@ -138,10 +138,19 @@ std::optional<PlaceDetection> PlaceMatcher::TryCandidates(const QuerySnapshot& q
     p.detection.matches = v.matches;
     p.detection.inliers = v.final_inliers;
     p.depth = q.depth;
-    p.agent_query_count = agent_queries_[q.id.agent()];
+    p.query_count = kind == PlaceDetection::Kind::kLoop ? agent_queries_[q.id.agent()] : stats().queries;
     if (kind == PlaceDetection::Kind::kFusion) {
-      p.map_transform = Sim3(q.world_from_cam) * v.query_from_candidate * Sim3(world_from_c.inverse());
-      p.probe = world_from_c.translation();
+      // Normalized to "lower map id <- higher map id", so that a detection made from either
+      // map (by either agent) confirms the other.
+      const Sim3 q_from_c = Sim3(q.world_from_cam) * v.query_from_candidate * Sim3(world_from_c.inverse());
+      if (q.map < cmap->id()) {
+        p.map_transform = q_from_c;
+        p.probe = world_from_c.translation();
+      } else {
+        p.map_transform = q_from_c.inverse();
+        p.probe = q.world_from_cam.translation();
+        p.depth = q.depth * p.map_transform.scale();
+      }
     } else {
       const Sim3 corrected_q = Sim3(world_from_c) * v.query_from_candidate.inverse();
       p.map_transform = corrected_q * Sim3(q.world_from_cam.inverse());
@@ -166,24 +175,23 @@ bool PlaceMatcher::Agree(const Pending& a, const Pending& b) const {
 
 std::optional<PlaceDetection> PlaceMatcher::CheckConsistency(const Pending& fresh) {
   const PlaceDetection& d = fresh.detection;
-  const auto key = std::make_tuple(d.query.agent(), static_cast<int>(d.kind),
-                                   d.kind == PlaceDetection::Kind::kLoop ? d.query_map : d.candidate_map);
+  const bool loop = d.kind == PlaceDetection::Kind::kLoop;
+  // Loops: the same agent's next keyframes must confirm. Fusions: any keyframe of either
+  // map, within the window counted in queries of all agents.
+  const auto key = loop ? std::make_tuple(static_cast<int>(d.kind), MapId::Make(d.query.agent(), 0), d.query_map)
+                        : std::make_tuple(static_cast<int>(d.kind), std::min(d.query_map, d.candidate_map),
+                                          std::max(d.query_map, d.candidate_map));
+  const int64_t window = loop ? options_.consistency_window_keyframes
+                              : options_.consistency_window_keyframes * std::max<int64_t>(1, agent_queries_.size());
   const auto it = pending_.find(key);
   if (it != pending_.end()) {
     const Pending& old = it->second;
-    const bool in_window =
-        fresh.agent_query_count - old.agent_query_count <= options_.consistency_window_keyframes &&
-        old.detection.query != d.query && old.detection.query_map == d.query_map &&
-        old.detection.candidate_map == d.candidate_map;
+    const bool in_window = fresh.query_count - old.query_count <= window && old.detection.query != d.query;
     if (in_window && Agree(old, fresh)) {
       PlaceDetection accepted = d;
       accepted.confirmed_by = old.detection.query;
       pending_.erase(it);
-      if (d.kind == PlaceDetection::Kind::kLoop) {
-        Bump(&PlaceMatcherStats::accepted_loops);
-      } else {
-        Bump(&PlaceMatcherStats::accepted_fusions);
-      }
+      Bump(loop ? &PlaceMatcherStats::accepted_loops : &PlaceMatcherStats::accepted_fusions);
       return accepted;
     }
     Bump(&PlaceMatcherStats::inconsistent);

@@ -69,10 +69,10 @@ class PlaceMatcher {
   struct QuerySnapshot;
   struct Pending {
     PlaceDetection detection;
-    Sim3 map_transform;  ///< fusion: query map <- candidate map; loop: corrected <- current
-    Eigen::Vector3d probe = Eigen::Vector3d::Zero();  ///< point where two transforms are compared
-    double depth = 1.0;                               ///< query scene depth (tolerance unit)
-    int64_t agent_query_count = 0;
+    Sim3 map_transform;  ///< fusion: lower map id <- higher map id; loop: corrected <- current
+    Eigen::Vector3d probe = Eigen::Vector3d::Zero();  ///< point (source frame) where two transforms are compared
+    double depth = 1.0;                               ///< scene depth in the target frame (tolerance unit)
+    int64_t query_count = 0;  ///< loops: the agent's queries so far; fusions: everyone's
   };
   std::optional<PlaceDetection> TryCandidates(const QuerySnapshot& q, const std::vector<PlaceCandidate>& candidates,
                                               PlaceDetection::Kind kind);
@@ -87,8 +87,8 @@ class PlaceMatcher {
   const PlaceMatchingOptions options_;
   MapStack* stack_;
   KeyframeDatabase database_;
-  /// Pending detections by (agent, kind, other map); other map = own map for loops.
-  std::map<std::tuple<AgentId, int, MapId>, Pending> pending_;
+  /// Pending detections: loops by (kind, agent, map), fusions by (kind, lower map, higher map).
+  std::map<std::tuple<int, MapId, MapId>, Pending> pending_;
   std::map<AgentId, int64_t> agent_queries_;
   std::map<MapId, int64_t> keyframes_since_loop_;
   mutable std::mutex stats_mutex_;  // leaf; guards stats_ (written by Process, read by anyone)

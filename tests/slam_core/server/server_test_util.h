@@ -2,6 +2,8 @@
 // a simulated flight packed into the batches the server receives (no server in the loop).
 #pragma once
 
+#include <glog/logging.h>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,6 +17,13 @@
 #include "tests/sim/simulation.h"
 
 namespace ccm::testing {
+
+/// Ceres reports every rejected trial step through glog ("Step failed to evaluate"); the
+/// VO's pose optimization produces them by the hundred, which buries test output.
+inline const bool kQuietCeres = [] {
+  FLAGS_minloglevel = 2;
+  return true;
+}();
 
 inline std::shared_ptr<const Vocabulary> SimVocabulary() {
   static const std::shared_ptr<const Vocabulary> vocab = [] {
@@ -31,7 +40,8 @@ inline std::shared_ptr<const sim::Simulation> LoadSim(const std::string& name) {
   return s ? std::shared_ptr<const sim::Simulation>(sim::Simulation::Create(*s, &error)) : nullptr;
 }
 
-/// One agent's VO on a simulated flight, packed every `period_frames` frames.
+/// One agent's VO on a simulated flight (every `stride`-th frame), packed every
+/// `period_frames` frames.
 struct VoStream {
   std::vector<AgentBatch> batches;
   std::shared_ptr<Map> final_map;      ///< the VO's local map at the end
@@ -40,9 +50,9 @@ struct VoStream {
 };
 
 inline VoStream RunVoStream(const std::shared_ptr<const sim::Simulation>& sim, int sim_agent, int64_t first_frame,
-                            int64_t frames, int period_frames = 5, VoOptions vo_options = {}) {
+                            int64_t frames, int period_frames = 5, VoOptions vo_options = {}, int64_t stride = 1) {
   VoStream out;
-  sim::SimFrameSource source(sim, sim_agent, first_frame, 1, frames);
+  sim::SimFrameSource source(sim, sim_agent, first_frame, stride, frames);
   std::shared_ptr<const CameraModel> camera(MakeCamera(source.intrinsics()));
   static const AckAll acks;
   const AgentId id = static_cast<AgentId>(sim_agent + 1);
