@@ -328,4 +328,16 @@ EssentialGraph Map::BuildEssentialGraph() const {
   return g;
 }
 
+double MedianSceneDepth(const Map& map, const KeyFrame& kf) {
+  const SE3 cam_from_world = kf.cam_from_world();
+  std::vector<double> depths;
+  for (const MapPointId id : kf.map_points()) {
+    if (!id.valid()) continue;
+    if (const auto mp = map.map_point(id); mp && !mp->bad()) depths.push_back((cam_from_world * mp->position()).z());
+  }
+  if (depths.empty()) return 0.0;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  return depths[depths.size() / 2];
+}
+
 }  // namespace ccm

@@ -90,4 +90,7 @@ class Map {
   std::unordered_map<MapPointId, std::shared_ptr<MapPoint>> map_points_;
 };
 
+/// Median depth of the good points `kf` observes, in its camera frame; 0 if it sees none.
+double MedianSceneDepth(const Map& map, const KeyFrame& kf);
+
 }  // namespace ccm

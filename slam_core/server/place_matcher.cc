@@ -108,58 +108,105 @@ std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
   return found;
 }
 
+std::optional<PlaceMatcher::View> PlaceMatcher::Snapshot(KeyframeId id) const {
+  const auto smap = stack_->MapHolding(id);
+  if (!smap) return std::nullopt;
+  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+  const auto kf = smap->map().keyframe(id);
+  if (smap->retired() || !kf) return std::nullopt;
+  View v;
+  v.id = id;
+  v.map = smap->id();
+  v.view = MakeVerificationView(*kf, smap->map(), *vocabulary_, options_.vocabulary_levels_up);
+  v.world_from_cam = kf->world_from_cam();
+  v.depth = MedianFiniteDepth(v.view);
+  v.covisible = kf->BestCovisible(kConfirmNeighbours);
+  return v;
+}
+
+std::optional<PlaceMatcher::Pending> PlaceMatcher::Verify(const View& q, const View& c, PlaceDetection::Kind kind) {
+  const VerificationResult v = VerifyPlace(c.view, q.view, options_.verification);
+  if (!v.accepted) return std::nullopt;
+  Bump(&PlaceMatcherStats::verified);
+  Pending p;
+  p.detection.kind = kind;
+  p.detection.query = q.id;
+  p.detection.candidate = c.id;
+  p.detection.query_map = q.map;
+  p.detection.candidate_map = c.map;
+  p.detection.query_from_candidate = v.query_from_candidate;
+  p.detection.matches = v.matches;
+  p.detection.inliers = v.final_inliers;
+  p.depth = q.depth;
+  p.query_count = kind == PlaceDetection::Kind::kLoop ? agent_queries_[q.id.agent()] : stats().queries;
+  if (kind == PlaceDetection::Kind::kFusion) {
+    // Normalized to "lower map id <- higher map id", so that a detection made from either
+    // map (by either agent) confirms the other.
+    const Sim3 q_from_c = Sim3(q.world_from_cam) * v.query_from_candidate * Sim3(c.world_from_cam.inverse());
+    if (q.map < c.map) {
+      p.map_transform = q_from_c;
+      p.probe = c.world_from_cam.translation();
+    } else {
+      p.map_transform = q_from_c.inverse();
+      p.probe = q.world_from_cam.translation();
+      p.depth = q.depth * p.map_transform.scale();
+    }
+  } else {
+    const Sim3 corrected_q = Sim3(c.world_from_cam) * v.query_from_candidate.inverse();
+    p.map_transform = corrected_q * Sim3(q.world_from_cam.inverse());
+    p.probe = q.world_from_cam.translation();
+    // VO does not drift by tens of degrees in rotation: an aliased view.
+    if (AngleDeg(Eigen::Quaterniond::Identity(), p.map_transform.rotation()) > options_.loop_max_correction_angle_deg) {
+      return std::nullopt;
+    }
+  }
+  return p;
+}
+
 std::optional<PlaceDetection> PlaceMatcher::TryCandidates(const QuerySnapshot& q,
                                                           const std::vector<PlaceCandidate>& candidates,
                                                           PlaceDetection::Kind kind) {
+  View qv;
+  qv.id = q.id;
+  qv.map = q.map;
+  qv.view = q.view;
+  qv.world_from_cam = q.world_from_cam;
+  qv.depth = q.depth;
+  qv.covisible = std::vector<KeyframeId>(q.covisible.begin(),
+                                         q.covisible.begin() + std::min<size_t>(q.covisible.size(), kConfirmNeighbours));
   for (const PlaceCandidate& cand : candidates) {
-    const KeyframeId cid = cand.best.keyframe;
-    const auto cmap = stack_->MapHolding(cid);
-    if (!cmap) continue;
-    if ((kind == PlaceDetection::Kind::kLoop) != (cmap->id() == q.map)) continue;  // maps changed meanwhile
-    VerificationView cview;
-    SE3 world_from_c;
-    {
-      std::shared_lock<WriterPreferringMutex> lock(cmap->structure_mutex());
-      const auto ckf = cmap->map().keyframe(cid);
-      if (cmap->retired() || !ckf) continue;
-      cview = MakeVerificationView(*ckf, cmap->map(), *vocabulary_, options_.vocabulary_levels_up);
-      world_from_c = ckf->world_from_cam();
+    const auto cv = Snapshot(cand.best.keyframe);
+    if (!cv || (kind == PlaceDetection::Kind::kLoop) != (cv->map == q.map)) continue;  // maps changed meanwhile
+    const auto p = Verify(qv, *cv, kind);
+    if (!p) continue;
+    if (auto confirmed = ConfirmWithNeighbours(qv, *cv, *p)) return confirmed;
+    return CheckConsistency(*p);
+  }
+  return std::nullopt;
+}
+
+std::optional<PlaceDetection> PlaceMatcher::ConfirmWithNeighbours(const View& q, const View& c, const Pending& first) {
+  // A second view pair of the same place must imply the same map-level transform: the
+  // query's covisible neighbours against the candidate and its neighbours (ORB-SLAM3 checks
+  // a merge with the query's covisible keyframes the same way). Confirmed at once, so an
+  // agent that makes few keyframes needs no second lucky query.
+  std::vector<View> candidates{c};
+  for (const KeyframeId id : c.covisible) {
+    if (auto v = Snapshot(id); v && v->map == c.map) candidates.push_back(std::move(*v));
+  }
+  for (const KeyframeId nid : q.covisible) {
+    const auto n = Snapshot(nid);
+    if (!n || n->map != q.map) continue;
+    for (const View& cc : candidates) {
+      if (first.detection.kind == PlaceDetection::Kind::kLoop && (cc.id == n->id)) continue;
+      const auto p = Verify(*n, cc, first.detection.kind);
+      if (!p || !Agree(first, *p)) continue;
+      PlaceDetection accepted = first.detection;
+      accepted.confirmed_by = nid;
+      Bump(first.detection.kind == PlaceDetection::Kind::kLoop ? &PlaceMatcherStats::accepted_loops
+                                                               : &PlaceMatcherStats::accepted_fusions);
+      return accepted;
     }
-    const VerificationResult v = VerifyPlace(cview, q.view, options_.verification);
-    if (!v.accepted) continue;
-    Bump(&PlaceMatcherStats::verified);
-    Pending p;
-    p.detection.kind = kind;
-    p.detection.query = q.id;
-    p.detection.candidate = cid;
-    p.detection.query_map = q.map;
-    p.detection.candidate_map = cmap->id();
-    p.detection.query_from_candidate = v.query_from_candidate;
-    p.detection.matches = v.matches;
-    p.detection.inliers = v.final_inliers;
-    p.depth = q.depth;
-    p.query_count = kind == PlaceDetection::Kind::kLoop ? agent_queries_[q.id.agent()] : stats().queries;
-    if (kind == PlaceDetection::Kind::kFusion) {
-      // Normalized to "lower map id <- higher map id", so that a detection made from either
-      // map (by either agent) confirms the other.
-      const Sim3 q_from_c = Sim3(q.world_from_cam) * v.query_from_candidate * Sim3(world_from_c.inverse());
-      if (q.map < cmap->id()) {
-        p.map_transform = q_from_c;
-        p.probe = world_from_c.translation();
-      } else {
-        p.map_transform = q_from_c.inverse();
-        p.probe = q.world_from_cam.translation();
-        p.depth = q.depth * p.map_transform.scale();
-      }
-    } else {
-      const Sim3 corrected_q = Sim3(world_from_c) * v.query_from_candidate.inverse();
-      p.map_transform = corrected_q * Sim3(q.world_from_cam.inverse());
-      p.probe = q.world_from_cam.translation();
-      if (AngleDeg(Eigen::Quaterniond::Identity(), p.map_transform.rotation()) > options_.loop_max_correction_angle_deg) {
-        continue;  // VO does not drift that much in rotation: an aliased view
-      }
-    }
-    return CheckConsistency(p);
   }
   return std::nullopt;
 }

@@ -67,6 +67,16 @@ class PlaceMatcher {
 
  private:
   struct QuerySnapshot;
+  /// A keyframe as verification sees it, with where it is.
+  struct View {
+    KeyframeId id;
+    MapId map;
+    VerificationView view;
+    SE3 world_from_cam;
+    double depth = 1.0;
+    std::vector<KeyframeId> covisible;  ///< best few, for confirmation
+  };
+  static constexpr int kConfirmNeighbours = 3;
   struct Pending {
     PlaceDetection detection;
     Sim3 map_transform;  ///< fusion: lower map id <- higher map id; loop: corrected <- current
@@ -77,6 +87,9 @@ class PlaceMatcher {
   std::optional<PlaceDetection> TryCandidates(const QuerySnapshot& q, const std::vector<PlaceCandidate>& candidates,
                                               PlaceDetection::Kind kind);
   std::optional<PlaceDetection> CheckConsistency(const Pending& fresh);
+  std::optional<View> Snapshot(KeyframeId id) const;
+  std::optional<Pending> Verify(const View& query, const View& candidate, PlaceDetection::Kind kind);
+  std::optional<PlaceDetection> ConfirmWithNeighbours(const View& q, const View& c, const Pending& first);
   bool Agree(const Pending& a, const Pending& b) const;
   void Bump(int64_t PlaceMatcherStats::*field, int64_t n = 1) {
     std::lock_guard<std::mutex> lock(stats_mutex_);

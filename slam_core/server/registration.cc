@@ -7,18 +7,6 @@
 namespace ccm {
 namespace {
 
-double MedianDepth(const Map& map, const KeyFrame& kf) {
-  const SE3 cw = kf.cam_from_world();
-  std::vector<double> d;
-  for (const MapPointId id : kf.map_points()) {
-    if (!id.valid()) continue;
-    if (const auto mp = map.map_point(id)) d.push_back((cw * mp->position()).z());
-  }
-  if (d.empty()) return 0.0;
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  return d[d.size() / 2];
-}
-
 // p_map = S * p_segment for the handler, from one keyframe seen in both frames.
 Sim3 MapFromSegment(const SE3& map_from_cam, const SE3& segment_from_cam, double scale) {
   const Eigen::Quaterniond q = map_from_cam.rotation() * segment_from_cam.rotation().conjugate();
@@ -155,7 +143,7 @@ void AgentRegistration::UpdateScale(const AgentHandler& handler, const KeyframeD
                                     const KeyFrame& kf) {
   const auto pred = smap->PoseOf(data.predecessor);
   const double received = data.pred_from_cam.translation().norm();
-  const double depth = MedianDepth(smap->map(), kf);
+  const double depth = MedianSceneDepth(smap->map(), kf);
   if (!pred || depth <= 0.0 || received * handler.scale < options_.scale_min_baseline_depth_ratio * depth) return;
   const double after = (pred->inverse() * kf.world_from_cam()).translation().norm();
   const double sample = after / received;

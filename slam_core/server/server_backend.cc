@@ -136,7 +136,8 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
   const double per_kf_registration = report.keyframes.empty() ? 0.0 : registration_ms / report.keyframes.size();
   std::vector<KeyframeId> for_place_recognition;
   std::vector<double> kf_ms;
-  int skipped = 0;
+  int skipped = 0, local_bas = 0;
+  double fusion_ms = 0.0, local_ba_ms = 0.0;
   for (const RegisteredKeyframe& r : report.keyframes) {
     const auto t1 = Clock::now();
     SharedMapLock locked = LockMapOf(stack_, r.id);
@@ -144,6 +145,9 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     const auto kf = locked.map->map().keyframe(r.id);
     if (!kf) continue;
     const ServerMappingReport m = mapper_.Process(locked.map.get(), kf);
+    fusion_ms += m.fusion_ms;
+    local_ba_ms += m.local_ba_ms;
+    local_bas += m.local_ba;
     if (m.skipped) {
       ++skipped;
     } else {
@@ -176,6 +180,10 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     c.points_registered += report.points_registered;
     c.updates_applied += report.keyframe_updates_applied + report.point_updates_applied;
     c.updates_ignored += report.updates_ignored;
+    c.registration_ms += registration_ms;
+    c.fusion_ms += fusion_ms;
+    c.local_ba_ms += local_ba_ms;
+    c.local_bas += local_bas;
     for (const double ms : kf_ms) {
       if (c.keyframe_ms.size() < kMaxTimingSamples) c.keyframe_ms.push_back(ms);
     }
@@ -279,16 +287,39 @@ void ServerBackend::RequestGlobalBa(MapId map) {
   opt_cv_.notify_all();
 }
 
-bool ServerBackend::RunOptimizationOnce(std::chrono::milliseconds timeout) {
+bool ServerBackend::RunOptimizationOnce(std::chrono::milliseconds timeout) { return RunOptimization(timeout, true); }
+
+bool ServerBackend::RunOptimization(std::chrono::milliseconds timeout, bool respect_pause) {
   MapId map;
   {
     std::unique_lock<std::mutex> lock(opt_mutex_);
-    auto ready = [&] { return stopping_ || !ba_pending_.empty() || redundancy_budget_ > 0; };
-    if (!opt_cv_.wait_for(lock, timeout, ready) || stopping_) return false;
+    // A global BA may start once its map's pause since the last one is over (duty cycle).
+    auto next_ba = [&]() -> std::optional<std::pair<MapId, Clock::time_point>> {
+      std::optional<std::pair<MapId, Clock::time_point>> best;
+      for (const MapId m : ba_pending_) {
+        const auto it = ba_not_before_.find(m);
+        const Clock::time_point t = respect_pause && it != ba_not_before_.end() ? it->second : Clock::time_point();
+        if (!best || t < best->second) best = std::make_pair(m, t);
+      }
+      return best;
+    };
+    auto ready = [&] {
+      const auto n = next_ba();
+      return stopping_ || redundancy_budget_ > 0 || (n && n->second <= Clock::now());
+    };
+    const auto deadline = Clock::now() + timeout;
+    while (!ready()) {
+      const auto n = next_ba();
+      const auto until = n ? std::min(deadline, n->second) : deadline;
+      if (Clock::now() >= deadline) return false;
+      opt_cv_.wait_until(lock, until);
+    }
+    if (stopping_) return false;
     opt_busy_ = true;
-    if (!ba_pending_.empty()) {
-      map = *ba_pending_.begin();
-      ba_pending_.erase(ba_pending_.begin());
+    const auto n = next_ba();
+    if (n && n->second <= Clock::now()) {
+      map = n->first;
+      ba_pending_.erase(map);
       ba_running_ = map;
       abort_ba_ = false;
     } else {
@@ -309,6 +340,11 @@ bool ServerBackend::RunOptimizationOnce(std::chrono::milliseconds timeout) {
       std::lock_guard<std::mutex> lock(opt_mutex_);
       ba_running_ = MapId();
       if (again) ba_pending_.insert(map);
+      if (r.outcome == GlobalBaReport::Outcome::kApplied) {
+        const double s = r.snapshot_s + r.solve_s + r.write_back_s;
+        ba_not_before_[map] = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                 std::chrono::duration<double>(options_.optimization.global_ba_pause_factor * s));
+      }
     }
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -396,7 +432,7 @@ void ServerBackend::ProcessAllQueued() {
       while (RunHandlerOnce(a, std::chrono::milliseconds(0))) worked = true;
     }
     while (RunPlaceRecognitionOnce(std::chrono::milliseconds(0))) worked = true;
-    while (RunOptimizationOnce(std::chrono::milliseconds(0))) worked = true;
+    while (RunOptimization(std::chrono::milliseconds(0), /*respect_pause=*/false)) worked = true;
     if (!worked || stopping_) return;
   }
 }

@@ -63,7 +63,9 @@ struct AgentCounters {
   int64_t updates_ignored = 0;
   int64_t rejected = 0;              ///< items that failed validation
   std::string last_rejection;
-  std::vector<double> keyframe_ms;   ///< registration + mapping per keyframe (last 20000)
+  std::vector<double> keyframe_ms;   ///< registration + mapping per keyframe (first 20000)
+  double registration_ms = 0.0, fusion_ms = 0.0, local_ba_ms = 0.0;  ///< totals per stage
+  int64_t local_bas = 0;
 };
 
 struct BackendStats {
@@ -171,6 +173,7 @@ class ServerBackend {
   void HandleDetection(const PlaceDetection& detection);
   void RequestGlobalBa(MapId map);
   bool RunRedundancyStep();
+  bool RunOptimization(std::chrono::milliseconds timeout, bool respect_pause);
   void AddEvent(ServerEvent e);
   double Elapsed() const;
   void OnRestored();  // after Load: database and queues from the restored stack
@@ -197,6 +200,7 @@ class ServerBackend {
   mutable std::mutex opt_mutex_;  // optimization jobs; leaf
   std::condition_variable opt_cv_;
   std::set<MapId> ba_pending_;
+  std::map<MapId, std::chrono::steady_clock::time_point> ba_not_before_;  ///< duty cycle per map
   MapId ba_running_;
   int64_t redundancy_budget_ = 0;  ///< steps earned by registered keyframes
   bool opt_busy_ = false;

@@ -1,6 +1,7 @@
 #include "slam_core/server/server_mapper.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <set>
 
@@ -9,15 +10,6 @@
 
 namespace ccm {
 namespace {
-
-double MedianDepth(const Map& map, const KeyFrame& kf) {
-  const SE3 cw = kf.cam_from_world();
-  std::vector<double> d;
-  for (const auto& mp : PointsOf(map, kf)) d.push_back((cw * mp->position()).z());
-  if (d.empty()) return 0.0;
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  return d[d.size() / 2];
-}
 
 double AxisAngleDeg(const KeyFrame& a, const KeyFrame& b) {
   const Eigen::Vector3d za = a.world_from_cam().rotation() * Eigen::Vector3d::UnitZ();
@@ -30,16 +22,26 @@ double AxisAngleDeg(const KeyFrame& a, const KeyFrame& b) {
 ServerMappingReport ServerMapper::Process(ServerMap* smap, const std::shared_ptr<KeyFrame>& kf) const {
   ServerMappingReport r;
   Map& map = smap->map();
+  const auto t0 = std::chrono::steady_clock::now();
   map.UpdateConnections(kf->id());
   FuseWithNeighbourhood(smap, kf, &r);
-  if (options_.local_ba && NeedsLocalBa(*kf)) {
+  const auto t1 = std::chrono::steady_clock::now();
+  r.fusion_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+  // The agent already optimized the keyframe with everything it knew; a local BA pays off
+  // only where the server just associated points the agent did not have.
+  const bool new_links = r.points_fused + r.observations_linked >= options_.local_ba_min_new_associations;
+  if (options_.local_ba && new_links && NeedsLocalBa(*kf)) {
     std::vector<std::shared_ptr<KeyFrame>> window{kf};
     for (const KeyframeId id : kf->BestCovisible(options_.local_ba_window - 1)) {
       if (const auto n = map.keyframe(id); n && !n->bad()) window.push_back(n);
     }
     opt::BundleAdjusterOptions ba = opt::LocalBaDefaults();
     ba.num_threads = 1;
-    const MapBaReport rep = BundleAdjustKeyframes(&map, window, options_.local_ba_max_fixed, ba, true, nullptr);
+    ba.robust_iterations = options_.local_ba_robust_iterations;
+    ba.refine_iterations = options_.local_ba_refine_iterations;
+    // Appearance only where observations changed: positions move by millimetres here.
+    const MapBaReport rep =
+        BundleAdjustKeyframes(&map, window, options_.local_ba_max_fixed, ba, true, nullptr, /*update_appearance=*/false);
     r.local_ba = rep.summary.usable;
     if (r.local_ba) {
       std::vector<KeyframeId> ids;
@@ -48,6 +50,7 @@ ServerMappingReport ServerMapper::Process(ServerMap* smap, const std::shared_ptr
     }
     r.local_ba_outliers = rep.outliers_removed;
     map.UpdateConnections(kf->id());
+    r.local_ba_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   }
   if (options_.duplicate_distance_ratio > 0.0) {
     const KeyframeId dup = NearDuplicateOf(map, *kf);
@@ -109,7 +112,7 @@ bool ServerMapper::NeedsLocalBa(const KeyFrame& kf) const {
 }
 
 KeyframeId ServerMapper::NearDuplicateOf(const Map& map, const KeyFrame& kf) const {
-  const double depth = MedianDepth(map, kf);
+  const double depth = MedianSceneDepth(map, kf);
   if (depth <= 0.0) return KeyframeId::Invalid();
   KeyframeId dup;
   for (const KeyframeId id : kf.BestCovisible(5)) {

@@ -15,6 +15,8 @@
 namespace ccm {
 
 struct ServerMappingReport {
+  double fusion_ms = 0.0;    ///< covisibility + duplicate-point fusion
+  double local_ba_ms = 0.0;
   int points_fused = 0;
   int observations_linked = 0;
   bool local_ba = false;

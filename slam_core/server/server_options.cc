@@ -15,7 +15,12 @@ std::string ServerMappingOptions::Validate() const {
   if (fusion_neighbours < 0) return "mapping.fusion_neighbours must be >= 0";
   if (!(fusion_radius_px > 0.0)) return "mapping.fusion_radius_px must be > 0";
   if (local_ba_window < 1) return "mapping.local_ba_window must be >= 1";
+  if (local_ba_min_new_associations < 0) return "mapping.local_ba_min_new_associations must be >= 0";
   if (local_ba_max_fixed < 0) return "mapping.local_ba_max_fixed must be >= 0";
+  if (local_ba_robust_iterations < 0 || local_ba_refine_iterations < 0 ||
+      local_ba_robust_iterations + local_ba_refine_iterations == 0) {
+    return "mapping.local_ba_*_iterations must be >= 0 and not both 0";
+  }
   if (recent_keyframes < 0) return "mapping.recent_keyframes must be >= 0";
   if (!(duplicate_distance_ratio >= 0.0 && duplicate_distance_ratio < 1.0)) {
     return "mapping.duplicate_distance_ratio must be in [0, 1)";
@@ -41,6 +46,7 @@ std::string PlaceMatchingOptions::Validate() const {
 std::string OptimizationJobOptions::Validate() const {
   if (global_ba_iterations < 1) return "optimization.global_ba_iterations must be >= 1";
   if (global_ba_threads < 1) return "optimization.global_ba_threads must be >= 1";
+  if (!(global_ba_pause_factor >= 0.0)) return "optimization.global_ba_pause_factor must be >= 0";
   if (pose_graph_iterations < 1) return "optimization.pose_graph_iterations must be >= 1";
   return "";
 }

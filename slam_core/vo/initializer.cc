@@ -11,21 +11,9 @@ namespace {
 
 constexpr int kMinFeaturesForReference = 100;
 
-double MedianDepth(const KeyFrame& kf, const Map& map) {
-  const SE3 cw = kf.cam_from_world();
-  std::vector<double> depths;
-  for (const MapPointId id : kf.map_points()) {
-    if (!id.valid()) continue;
-    if (const auto mp = map.map_point(id)) depths.push_back((cw * mp->position()).z());
-  }
-  if (depths.empty()) return 0.0;
-  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
-  return depths[depths.size() / 2];
-}
-
 // Monocular scale is arbitrary: fix it so the first keyframe's median depth is 1.
 void NormalizeScale(Map* map, const KeyFrame& kf1, KeyFrame* kf2) {
-  const double median = MedianDepth(kf1, *map);
+  const double median = MedianSceneDepth(*map, kf1);
   if (median <= 0.0) return;
   const double s = 1.0 / median;
   const SE3 pose = kf2->world_from_cam();

@@ -14,18 +14,6 @@ namespace {
 
 constexpr double kMinFoundRatio = 0.25;  // ORB-SLAM: points found in < 25% of predictions go
 
-double MedianDepthOf(const KeyFrame& kf, const Map& map) {
-  const SE3 cw = kf.cam_from_world();
-  std::vector<double> d;
-  for (const MapPointId id : kf.map_points()) {
-    if (!id.valid()) continue;
-    if (const auto mp = map.map_point(id)) d.push_back((cw * mp->position()).z());
-  }
-  if (d.empty()) return 1.0;
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  return d[d.size() / 2];
-}
-
 }  // namespace
 
 LocalMapper::LocalMapper(VoShared* shared, const AckSource* acks)
@@ -110,7 +98,8 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
     const auto n = map->keyframe(nid);
     if (!n || n->bad()) continue;
     const double baseline = (n->camera_center() - kf_wc.translation()).norm();
-    if (baseline / MedianDepthOf(*n, *map) < o.min_baseline_depth_ratio) continue;
+    const double depth = MedianSceneDepth(*map, *n);
+    if (baseline / (depth > 0.0 ? depth : 1.0) < o.min_baseline_depth_ratio) continue;
     const SE3 n_from_kf = n->cam_from_world() * kf_wc;
     for (const auto& [i, j] : MatchForTriangulation(*kf, *n, n_from_kf)) {
       if (kf->MapPointAt(i).valid() || n->MapPointAt(j).valid()) continue;

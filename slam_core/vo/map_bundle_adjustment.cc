@@ -34,7 +34,7 @@ struct ProblemIndex {
 
 MapBaReport BundleAdjustKeyframes(Map* map, const std::vector<std::shared_ptr<KeyFrame>>& free_kfs,
                                   int max_fixed, const opt::BundleAdjusterOptions& options,
-                                  bool remove_outliers, ChangeLog* changes) {
+                                  bool remove_outliers, ChangeLog* changes, bool update_appearance) {
   ProblemIndex ix;
   MapBaReport report;
   for (const auto& kf : free_kfs) ix.AddKeyframe(kf, false);
@@ -99,15 +99,17 @@ MapBaReport BundleAdjustKeyframes(Map* map, const std::vector<std::shared_ptr<Ke
     ix.points[p]->SetPosition(ix.problem.points[p].position_w);
     if (changes) changes->Touch(ix.points[p]->id());
   }
+  std::vector<bool> changed(ix.points.size(), update_appearance);
   if (remove_outliers) {
     for (size_t i = 0; i < refs.size(); ++i) {
       if (report.summary.inlier[i]) continue;
       map->EraseObservation(ix.kfs[refs[i].kf]->id(), ix.points[refs[i].point]->id());
+      changed[refs[i].point] = true;
       ++report.outliers_removed;
     }
   }
-  for (const auto& mp : ix.points) {
-    if (!mp->bad()) map->UpdateMapPointAppearance(mp->id());
+  for (size_t p = 0; p < ix.points.size(); ++p) {
+    if (changed[p] && !ix.points[p]->bad()) map->UpdateMapPointAppearance(ix.points[p]->id());
   }
   return report;
 }

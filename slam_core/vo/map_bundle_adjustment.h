@@ -22,9 +22,11 @@ struct MapBaReport {
 
 /// Optimizes `free_kfs` and every point they observe; other keyframes observing those
 /// points enter as fixed (at most max_fixed of them, most observations first).
-/// With remove_outliers, observations flagged as outliers are erased from the map.
+/// With remove_outliers, observations flagged as outliers are erased from the map. With
+/// update_appearance every optimized point's descriptor, normal and depth range are
+/// recomputed (the VO tracks with them); otherwise only those that lost an observation.
 MapBaReport BundleAdjustKeyframes(Map* map, const std::vector<std::shared_ptr<KeyFrame>>& free_kfs,
                                   int max_fixed, const opt::BundleAdjusterOptions& options,
-                                  bool remove_outliers, ChangeLog* changes);
+                                  bool remove_outliers, ChangeLog* changes, bool update_appearance = true);
 
 }  // namespace ccm

@@ -119,8 +119,15 @@ struct FileRec {
 };
 
 KfRec ToRec(const KeyframeData& k, uint32_t camera) {
-  KfRec r{k.id.packed(), k.segment.packed(), k.predecessor.packed(), k.parent.packed(), k.stamp_ns, camera,
-          k.pyramid_levels, k.pyramid_scale_factor};
+  KfRec r;
+  r.id = k.id.packed();
+  r.segment = k.segment.packed();
+  r.pred = k.predecessor.packed();
+  r.parent = k.parent.packed();
+  r.stamp = k.stamp_ns;
+  r.camera = camera;
+  r.levels = k.pyramid_levels;
+  r.scale_factor = k.pyramid_scale_factor;
   for (const Keypoint& p : k.features->keypoints) {
     r.kp.insert(r.kp.end(), {p.u, p.v, p.angle_deg, p.response});
     r.level.push_back(static_cast<int8_t>(p.level));

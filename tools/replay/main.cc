@@ -143,10 +143,10 @@ int main(int argc, char** argv) {
   if (!OpenInputs(a, &inputs, &error)) return Fail(error);
   std::unique_ptr<ccm::ServerBackend> backend;
   if (!a.load_map.empty()) {
-    backend = ccm::ServerBackend::Load(a.load_map, vocab, a.replay.server, &error);
+    backend = ccm::ServerBackend::Load(a.load_map, vocab, a.replay.BackendOptions(), &error);
     if (!backend) return Fail(error);
   } else {
-    backend = std::make_unique<ccm::ServerBackend>(vocab, a.replay.server);
+    backend = std::make_unique<ccm::ServerBackend>(vocab, a.replay.BackendOptions());
   }
   spdlog::info("replaying {} agents ({}), vocabulary {} words", inputs.size(), a.replay.threaded ? "threaded" : "deterministic",
                vocab->num_words());

@@ -39,6 +39,14 @@ struct ReplayOptions {
   /// replays call it from the agents' threads, one at a time.
   std::function<void(const AgentBatch&)> on_batch;
   std::string Validate() const;
+  /// The server options to build the back-end with: a deterministic replay runs global BA
+  /// on one thread (multi-threaded Ceres sums in a different order on every run, and a
+  /// last-bit difference changes which loops close later).
+  ServerOptions BackendOptions() const {
+    ServerOptions s = server;
+    if (!threaded) s.optimization.global_ba_threads = 1;
+    return s;
+  }
 };
 
 /// Progress line data, sent every progress period.

@@ -81,10 +81,12 @@ void RegistrationTimes(const replay::Recording& rec, std::shared_ptr<const Vocab
   const auto r = replay::PlayRecording(rec, &backend, {});
   const double cpu = CpuSeconds() - cpu0;
   std::vector<double> ms;
-  int64_t kfs = 0;
+  int64_t kfs = 0, local_bas = 0;
+  double reg_ms = 0, fusion_ms = 0, ba_ms = 0;
   for (const auto& [a, c] : r.stats.agents) {
     ms.insert(ms.end(), c.keyframe_ms.begin(), c.keyframe_ms.end());
     kfs += c.keyframes_registered;
+    reg_ms += c.registration_ms, fusion_ms += c.fusion_ms, ba_ms += c.local_ba_ms, local_bas += c.local_bas;
   }
   double ba_s = 0;
   for (const auto& [n, s] : r.stats.global_ba_seconds) ba_s += s;
@@ -93,6 +95,10 @@ void RegistrationTimes(const replay::Recording& rec, std::shared_ptr<const Vocab
   std::printf("| stage | median | p95 | mean |\n|---|---|---|---|\n");
   std::printf("| registration + server mapping [ms] | %.1f | %.1f | %.1f |\n", Percentile(ms, 0.5), Percentile(ms, 0.95),
               ComputeStats(ms).mean);
+  std::printf("| of which registration (placement, refinement, points, updates) [ms] | - | - | %.1f |\n", reg_ms / kfs);
+  std::printf("| of which covisibility + duplicate-point fusion [ms] | - | - | %.1f |\n", fusion_ms / kfs);
+  std::printf("| of which local BA (%lld of %lld keyframes) [ms] | - | - | %.1f |\n", static_cast<long long>(local_bas),
+              static_cast<long long>(kfs), ba_ms / kfs);
   std::printf("| place recognition (query + verification) [ms] | - | - | %.1f |\n",
               r.stats.place.total_query_ms / std::max<int64_t>(1, r.stats.place.queries));
   std::printf("| global BA (%lld runs) [s] | - | - | %.2f |\n", static_cast<long long>(r.stats.global_ba_applied),
@@ -158,7 +164,7 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
 void Throughput(const replay::Recording& rec, std::shared_ptr<const Vocabulary> vocab, const std::vector<int>& counts,
                 double speed) {
   std::printf("\n## 3. Agents' streams at %.1fx their recorded rate, threaded back-end on this machine\n\n", speed);
-  std::printf("| agents | keyframes/s offered | max backlog [batches] | drain after last [s] | CPU load [cores] | keeps up |\n");
+  std::printf("| agents | keyframes/s offered | max backlog [batches] (~ [s] of data) | drain after last [s] | CPU load [cores] | keeps up |\n");
   std::printf("|---|---|---|---|---|---|\n");
   for (const int n : counts) {
     const auto schedule = Schedule(rec, n);
@@ -184,8 +190,13 @@ void Throughput(const replay::Recording& rec, std::shared_ptr<const Vocabulary> 
       const double wall = std::chrono::duration<double>(Clock::now() - start).count();
       runner.Stop();
       const double load = (CpuSeconds() - c0) / wall;
-      const bool ok = drain < 10.0 && max_backlog <= static_cast<size_t>(4 * n);
-      std::printf("| %d | %.1f | %zu | %.1f | %.2f | %s |\n", n, kfs / span_s, max_backlog, drain, load, ok ? "yes" : "no");
+      // Keeping up = the lag stays bounded: at most 10 s of data queued at any time (an
+      // agent's B = 50 unacknowledged keyframes last ~15 s at hall3's rate) and everything
+      // registered within 3 s of the last batch.
+      const double lag_s = max_backlog / (schedule.size() / span_s);
+      const bool ok = drain < 3.0 && lag_s < 10.0;
+      std::printf("| %d | %.1f | %zu (%.1f) | %.1f | %.2f | %s |\n", n, kfs / span_s, max_backlog, lag_s, drain, load,
+                  ok ? "yes" : "no");
       std::fflush(stdout);
     }
   }

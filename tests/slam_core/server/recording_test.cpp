@@ -26,7 +26,9 @@ const replay::Recording& Hall3Recording() {
 
 replay::ReplayEvaluation Play(const ServerOptions& o, const replay::PlayOptions& p, replay::ReplayResult* out = nullptr,
                               std::unique_ptr<ServerBackend>* keep = nullptr) {
-  auto backend = std::make_unique<ServerBackend>(SimVocabulary(), o);
+  ServerOptions options = o;
+  if (!p.threaded) options.optimization.global_ba_threads = 1;  // deterministic, comparable runs
+  auto backend = std::make_unique<ServerBackend>(SimVocabulary(), options);
   const replay::ReplayResult r = replay::PlayRecording(Hall3Recording(), backend.get(), p);
   if (out) *out = r;
   if (keep) *keep = std::move(backend);
@@ -99,6 +101,7 @@ TEST(ServerRecording, SavedHalfWayTheReloadedStackFusesAndClosesLoopsOn) {
   const std::string path = (std::filesystem::temp_directory_path() / "ccm_recording_half.bin").string();
   std::string error;
   ASSERT_TRUE(first->Save(path, &error)) << error;
+  o.optimization.global_ba_threads = 1;
   auto loaded = ServerBackend::Load(path, SimVocabulary(), o, &error);
   ASSERT_NE(loaded, nullptr) << error;
   replay::PlayOptions p2;

@@ -48,7 +48,7 @@ TEST(ServerScenario, Hall3ThreeAgentsFuseCloseLoopsAndBeatStandalone) {
   replay::ReplayOptions o;
   replay::Recording recording;
   o.on_batch = [&](const AgentBatch& b) { recording.batches.push_back(b); };
-  ServerBackend backend(SimVocabulary(), o.server);
+  ServerBackend backend(SimVocabulary(), o.BackendOptions());
   const replay::ReplayResult r = replay::RunReplay(SimAgents(sim), o, &backend);
   ASSERT_EQ(r.error, "");
   const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
@@ -73,7 +73,7 @@ TEST(ServerScenario, Disjoint2NeverFuses) {
   const auto sim = LoadSim("disjoint2");
   ASSERT_NE(sim, nullptr);
   replay::ReplayOptions o;
-  ServerBackend backend(SimVocabulary(), o.server);
+  ServerBackend backend(SimVocabulary(), o.BackendOptions());
   const replay::ReplayResult r = replay::RunReplay(SimAgents(sim, 700), o, &backend);
   ASSERT_EQ(r.error, "");
   std::printf("  disjoint2: maps %zu, fusions %lld, loops %lld, place candidates verified %lld\n", r.maps.size(),
@@ -113,6 +113,7 @@ TEST(ServerScenario, RepeatedFusionsAgreeWithGroundTruth) {
   std::stable_sort(order.begin(), order.end(), [](const auto* x, const auto* y) { return x->stamp_ns < y->stamp_ns; });
   ServerOptions o;
   o.optimization.global_ba_after_fusion = false;
+  o.optimization.global_ba_threads = 1;  // deterministic
   ServerBackend backend(SimVocabulary(), o);
   size_t seen_events = 0;
   int fusions = 0;
@@ -173,7 +174,7 @@ TEST(ServerScenario, SegmentAfterTrackingLossEndsInTheFusedMap) {
   in.push_back({"blinded", 1, std::make_unique<BlackoutSource>(std::make_unique<sim::SimFrameSource>(sim, 0, 0, 1, -1),
                                                                 300, 45)});
   replay::ReplayOptions o;
-  ServerBackend backend(SimVocabulary(), o.server);
+  ServerBackend backend(SimVocabulary(), o.BackendOptions());
   const replay::ReplayResult r = replay::RunReplay(std::move(in), o, &backend);
   ASSERT_EQ(r.error, "");
   ASSERT_EQ(r.agents[0].segments, 2) << "the blackout must open a second VO segment";
