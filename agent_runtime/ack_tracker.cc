@@ -3,18 +3,21 @@
 namespace ccm::agent {
 
 void AckTracker::OnSent(KeyframeId id, Clock::time_point now) {
-  auto [it, inserted] = entries_.try_emplace(id);
-  it->second.last_sent = now;
-  (void)inserted;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (acked_.count(id)) return;  // a resend of something the server already has
+  entries_[id].last_sent = now;
 }
 
 std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now) {
+  std::lock_guard<std::mutex> lock(mutex_);
   for (KeyframeId id : acked) {
     auto it = entries_.find(id);
     if (it == entries_.end() || it->second.acked) continue;  // unknown or duplicate ack
     it->second.acked = true;
     ++acked_count_;
+    acked_.insert(id);
   }
+  while (acked_.size() > kRememberedAcks) acked_.erase(acked_.begin());
   std::vector<KeyframeId> resend;
   // Walk in id order: an unacked entry directly followed by an acked one was skipped by
   // the server (lost or not yet processed): resend it unless it was sent very recently.
@@ -27,13 +30,14 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
       resend.push_back(it->first);
     }
   }
-  // An acknowledged prefix is never needed again (it cannot be the successor of an
-  // unacknowledged KF): dropping it keeps the tracker bounded by the unacked window.
+  // An acknowledged prefix is never needed again for resends (it cannot be the successor of
+  // an unacknowledged KF); IsAcked answers from acked_.
   while (!entries_.empty() && entries_.begin()->second.acked) entries_.erase(entries_.begin());
   return resend;
 }
 
 std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, Clock::time_point now) {
+  std::lock_guard<std::mutex> lock(mutex_);
   std::vector<KeyframeId> out;
   for (auto& [id, entry] : entries_) {
     if (!entry.acked && now - entry.last_sent >= timeout) {
@@ -46,11 +50,28 @@ std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, C
 }
 
 bool AckTracker::IsAcked(KeyframeId id) const {
-  auto it = entries_.find(id);
-  return it != entries_.end() && it->second.acked;
+  std::lock_guard<std::mutex> lock(mutex_);
+  return acked_.count(id) > 0;
+}
+
+void AckTracker::Forget(KeyframeId id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = entries_.find(id);
+  if (it != entries_.end() && !it->second.acked) entries_.erase(it);
+}
+
+std::uint64_t AckTracker::acked_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return acked_count_;
+}
+
+std::uint64_t AckTracker::resent_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return resent_count_;
 }
 
 std::size_t AckTracker::unacked_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
   std::size_t n = 0;
   for (const auto& [id, entry] : entries_) n += entry.acked ? 0 : 1;
   return n;

@@ -1,19 +1,24 @@
 // Agent-side bookkeeping of CCM-SLAM's optimistic acknowledgement scheme: the server lists
 // the keyframes it processed inside its (BEST_EFFORT, never acked) messages; when the
 // agent sees KF i acknowledged but KF i-1 (sent earlier) not, it resends i-1 in full.
-// Pure logic, no DDS and no clock of its own: owned and called by one comm thread.
+// It is also the VO's AckSource: the local map lets an acknowledged keyframe go (N+B rule).
+// No DDS and no clock of its own. Thread-safe: the comm thread updates it, the VO's mapping
+// thread asks IsAcked(); one internal mutex, a leaf.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <map>
+#include <mutex>
+#include <set>
 #include <vector>
 
 #include "slam_core/common/ids.h"
+#include "slam_core/vo/local_map_bound.h"
 
 namespace ccm::agent {
 
-class AckTracker {
+class AckTracker final : public AckSource {
  public:
   using Clock = std::chrono::steady_clock;
 
@@ -25,23 +30,30 @@ class AckTracker {
   void OnSent(KeyframeId id, Clock::time_point now);
   /// Registers acknowledgements; returns the KFs to resend now (ascending).
   std::vector<KeyframeId> OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now);
-  /// Unacknowledged KFs sent longer than `timeout` ago whose successor was never acked
-  /// either (e.g. the newest KFs when the server went silent): candidates for a resend.
+  /// Unacknowledged KFs sent longer than `timeout` ago (e.g. the newest KFs when the server
+  /// went silent): candidates for a resend; each is reported again only after `timeout`.
   std::vector<KeyframeId> Overdue(std::chrono::milliseconds timeout, Clock::time_point now);
-  /// The local map may drop this KF without data loss.
-  bool IsAcked(KeyframeId id) const;
-  void Forget(KeyframeId id) { entries_.erase(id); }
+  /// The local map may drop this KF without data loss. Stays true after the tracker
+  /// stopped tracking the KF's resend state.
+  bool IsAcked(KeyframeId id) const override;
+  /// The KF left the agent for good (dropped unacknowledged): stop resending it.
+  void Forget(KeyframeId id);
 
-  std::uint64_t acked_count() const { return acked_count_; }
-  std::uint64_t resent_count() const { return resent_count_; }
+  std::uint64_t acked_count() const;
+  std::uint64_t resent_count() const;
   std::size_t unacked_count() const;
+
+  /// Acknowledged ids remembered for IsAcked (far more than a local map's N + B keyframes).
+  static constexpr std::size_t kRememberedAcks = 4096;
 
  private:
   struct Entry {
     Clock::time_point last_sent;
     bool acked = false;
   };
+  mutable std::mutex mutex_;
   std::map<KeyframeId, Entry> entries_;  // ordered: the predecessor of i is the previous entry
+  std::set<KeyframeId> acked_;           // newest kRememberedAcks acknowledged ids
   std::chrono::milliseconds holdoff_;
   std::uint64_t acked_count_ = 0;
   std::uint64_t resent_count_ = 0;

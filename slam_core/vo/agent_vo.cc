@@ -61,6 +61,10 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     stats_.segments = tracker_.segments_started() + 1;
     AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }
+  // Nobody may be taking changes (standalone, server unreachable): keep the log bounded.
+  if (frame_index_ % 16 == 0 && shared_.changes.size() > shared_.options.max_pending_changes) {
+    if (const auto m = CurrentMap()) shared_.changes.Prune(*m);
+  }
   if (synchronous_) DrainMapping();
   return r;
 }

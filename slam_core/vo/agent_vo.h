@@ -80,6 +80,9 @@ class AgentVo {
   void ApplyServerData(ServerMapData data);
 
   VoChanges TakeChanges();
+  /// Keyframes + points changed and not taken yet (bounded by the local map's size: ids
+  /// that left the map are pruned from time to time).
+  size_t pending_changes() const { return shared_.changes.size(); }
   std::shared_ptr<Map> map() const;
   AgentVoStats stats() const;
   /// Per tracked frame: its pose composed with the final pose of its reference keyframe

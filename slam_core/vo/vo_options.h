@@ -74,6 +74,10 @@ struct VoOptions {
   /// it grows with the flight time (about 100 B per frame).
   bool record_frame_trajectory = true;
 
+  /// Changed ids waiting for the comm module; above this, ids of objects that left the map
+  /// are dropped (nobody takes changes in standalone runs or while the server is gone).
+  size_t max_pending_changes = 20000;
+
   std::string Validate() const;
 };
 

@@ -43,9 +43,22 @@ class ChangeLog {
     keyframes_.clear();
     map_points_.clear();
   }
+  size_t size() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return keyframes_.size() + map_points_.size();
+  }
+  /// Without a consumer (no server, standalone runs) the log would grow with the flight:
+  /// objects that left the map will never be sent, so they are dropped.
+  void Prune(const Map& map) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto it = keyframes_.begin(); it != keyframes_.end();) it = map.keyframe(*it) ? std::next(it) : keyframes_.erase(it);
+    for (auto it = map_points_.begin(); it != map_points_.end();) {
+      it = map.map_point(*it) ? std::next(it) : map_points_.erase(it);
+    }
+  }
 
  private:
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::set<KeyframeId> keyframes_;
   std::set<MapPointId> map_points_;
 };

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <thread>
+
 namespace ccm::agent {
 namespace {
 
@@ -69,6 +72,54 @@ TEST(AckTracker, StaysBoundedOverALongRun) {
   EXPECT_EQ(t.acked_count(), 10000u);
   EXPECT_EQ(t.unacked_count(), 0u);
   EXPECT_EQ(t.resent_count(), 0u);
+}
+
+}  // namespace
+}  // namespace ccm::agent
+
+namespace ccm::agent {
+namespace {
+
+TEST(AckTracker, AcknowledgedKeyframesStayAckedAfterTheirBookkeepingIsPruned) {
+  // The old tracker answered false once an acked prefix was pruned: the local map would
+  // then have counted a keyframe the server has as lost.
+  AckTracker t(std::chrono::milliseconds(0));
+  const auto t0 = AckTracker::Clock::now();
+  for (int i = 1; i <= 5; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1), Kf(2), Kf(3)}, t0);
+  EXPECT_EQ(t.unacked_count(), 2u);
+  for (int i = 1; i <= 3; ++i) EXPECT_TRUE(t.IsAcked(Kf(i))) << i;
+  EXPECT_FALSE(t.IsAcked(Kf(4)));
+  const AckSource& as_source = t;
+  EXPECT_TRUE(as_source.IsAcked(Kf(2)));
+}
+
+TEST(AckTracker, ForgottenKeyframesAreNotResent) {
+  AckTracker t(std::chrono::milliseconds(0));
+  const auto t0 = AckTracker::Clock::now();
+  for (int i = 1; i <= 3; ++i) t.OnSent(Kf(i), t0);
+  t.Forget(Kf(2));  // dropped from the agent's buffer unacknowledged
+  EXPECT_TRUE(t.OnAcked({Kf(3)}, t0 + std::chrono::seconds(2)).empty());
+  EXPECT_EQ(t.Overdue(std::chrono::milliseconds(1), t0 + std::chrono::seconds(3)), (std::vector<KeyframeId>{Kf(1)}));
+}
+
+TEST(AckTracker, TheMappingThreadMayAskWhileTheCommThreadAcks) {
+  AckTracker t(std::chrono::milliseconds(0));
+  const auto t0 = AckTracker::Clock::now();
+  std::atomic<bool> done{false};
+  std::atomic<int64_t> answers{0};
+  std::thread reader([&] {
+    while (!done) answers += t.IsAcked(Kf(7)) ? 1 : 0;
+  });
+  for (int i = 1; i <= 20000; ++i) {
+    t.OnSent(Kf(i), t0);
+    if (i % 5 == 0) t.OnAcked({Kf(i - 4), Kf(i - 3), Kf(i - 2), Kf(i - 1), Kf(i)}, t0);
+  }
+  done = true;
+  reader.join();
+  EXPECT_EQ(t.acked_count(), 20000u);
+  EXPECT_FALSE(t.IsAcked(Kf(7))) << "only the newest acknowledgements are remembered";
+  EXPECT_TRUE(t.IsAcked(Kf(20000)));
 }
 
 }  // namespace

@@ -19,6 +19,7 @@ struct VoSimRun {
   int64_t first_tracked_index = -1;
   int segments = 1;
   size_t max_keyframes_in_map = 0;
+  size_t pending_changes = 0;  ///< changes nobody took, at the end
   AgentVoStats stats;
   double path_length_m = 0.0;
   double ate_rmse_m = -1.0;  ///< Sim(3)-aligned, tracked frames only
@@ -54,6 +55,7 @@ inline VoSimRun RunVoOnSim(const std::shared_ptr<const sim::Simulation>& sim, in
     if (const auto m = vo.map()) run.max_keyframes_in_map = std::max(run.max_keyframes_in_map, m->num_keyframes());
   }
   run.stats = vo.stats();
+  run.pending_changes = vo.pending_changes();
   run.est.clear();
   for (const KeyframePose& p : vo.FrameTrajectory()) run.est.push_back({p.stamp_ns, p.world_from_cam});
   run.segments = run.stats.segments;
