@@ -99,8 +99,10 @@ TEST(AckTracker, ForgottenKeyframesAreNotResent) {
   const auto t0 = AckTracker::Clock::now();
   for (int i = 1; i <= 3; ++i) t.OnSent(Kf(i), t0);
   t.Forget(Kf(2));  // dropped from the agent's buffer unacknowledged
-  EXPECT_TRUE(t.OnAcked({Kf(3)}, t0 + std::chrono::seconds(2)).empty());
+  // 1 is now the unacknowledged keyframe before an acknowledged one; 2 is never asked for.
+  EXPECT_EQ(t.OnAcked({Kf(3)}, t0 + std::chrono::seconds(2)), (std::vector<KeyframeId>{Kf(1)}));
   EXPECT_EQ(t.Overdue(std::chrono::milliseconds(1), t0 + std::chrono::seconds(3)), (std::vector<KeyframeId>{Kf(1)}));
+  EXPECT_EQ(t.unacked_count(), 1u);
 }
 
 TEST(AckTracker, TheMappingThreadMayAskWhileTheCommThreadAcks) {
