@@ -89,6 +89,11 @@ int ServerBackend::Submit(AgentBatch batch) {
     }
     AgentQueue& q = queues_[agent];
     if (is_new) q.registration = std::make_unique<AgentRegistration>(agent, &stack_, options_.registration);
+    if (static_cast<int>(q.batches.size()) >= options_.max_queued_batches_per_agent) {
+      std::lock_guard<std::mutex> slock(stats_mutex_);
+      ++stats_.agents[agent].batches_dropped;
+      return -1;
+    }
     if (!batch.empty()) q.batches.push_back(std::move(batch));
     callback = is_new ? on_new_agent_ : nullptr;
   }

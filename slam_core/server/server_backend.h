@@ -62,6 +62,7 @@ struct AgentCounters {
   int64_t updates_applied = 0;
   int64_t updates_ignored = 0;
   int64_t rejected = 0;              ///< items that failed validation
+  int64_t batches_dropped = 0;       ///< queue full (max_queued_batches_per_agent)
   std::string last_rejection;
   std::vector<double> keyframe_ms;   ///< registration + mapping per keyframe (first 20000)
   double registration_ms = 0.0, fusion_ms = 0.0, local_ba_ms = 0.0;  ///< totals per stage
@@ -114,8 +115,8 @@ class ServerBackend {
   ServerBackend& operator=(const ServerBackend&) = delete;
 
   /// Any thread. Validates every item (rejected ones are counted, the rest is queued); an
-  /// agent beyond max_agents is refused. Returns the number of items rejected, -1 if the
-  /// whole batch was refused.
+  /// agent beyond max_agents is refused, a batch for a full queue dropped (both counted).
+  /// Returns the number of items rejected, -1 if the whole batch was refused or dropped.
   int Submit(AgentBatch batch);
   /// Called (from Submit's thread) the first time an agent submits: the runner starts its
   /// handler thread. Set before the first Submit.

@@ -102,6 +102,10 @@ struct ServerOptions {
   OptimizationJobOptions optimization;
   RedundancyOptions redundancy;
   int max_agents = 64;
+  /// Batches waiting per agent; a batch beyond is dropped and counted (the agent resends
+  /// keyframes the server never acknowledges; updates are superseded anyway), so one slow
+  /// or flooding agent cannot grow the server's memory.
+  int max_queued_batches_per_agent = 256;
   int neighbourhood_k = 5;  ///< keyframes sent back to an agent (CCM-SLAM default 5)
   std::string Validate() const;
 };

@@ -181,6 +181,20 @@ TEST(Submit, AgentsBeyondMaxAgentsAreRefused) {
   EXPECT_EQ(backend.agents().size(), 1u);
 }
 
+TEST(Submit, AFullAgentQueueDropsAndCountsInsteadOfGrowing) {
+  const testing::VoStream& s = Hall3Stream();
+  ServerOptions o;
+  o.max_queued_batches_per_agent = 3;
+  ServerBackend backend(SimVocabulary(), o);
+  int refused = 0;
+  for (const AgentBatch& b : s.batches) refused += backend.Submit(b) < 0;  // nobody processes
+  EXPECT_EQ(refused, static_cast<int>(s.batches.size()) - 3);
+  EXPECT_EQ(backend.queue_depths().agent_batches.at(1), 3u);
+  EXPECT_EQ(backend.stats().agents.at(1).batches_dropped, refused);
+  backend.ProcessAllQueued();
+  EXPECT_GT(backend.AgentTrajectory(1).size(), 0u) << "what was queued is processed";
+}
+
 TEST(MapStack, RepointComposesTheFusionSim3AndScale) {
   MapStack stack(MapOptions{});
   const MapId seg1 = MapId::Make(1, 1), seg2 = MapId::Make(2, 1);
