@@ -1,5 +1,6 @@
 #include "runtime_common/synthetic_msgs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -24,6 +25,28 @@ msg::OrbDescriptor RandomDescriptor(std::mt19937_64& rng) {
   return d;
 }
 
+// EuRoC's cam0 (pinhole radtan).
+msg::CameraInfo EurocCamera() {
+  msg::CameraInfo cam;
+  cam.model(0); cam.width_px(752); cam.height_px(480);
+  cam.fx(458.654f); cam.fy(457.296f); cam.cx(367.215f); cam.cy(248.375f);
+  cam.distortion({-0.28340811f, 0.07395907f, 0.00019359f, 1.76187114e-05f});
+  return cam;
+}
+
+void RandomFeatures(std::mt19937_64& rng, int num_features, std::vector<msg::Keypoint>* keypoints,
+                    std::vector<msg::OrbDescriptor>* descriptors) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  keypoints->resize(num_features);
+  descriptors->resize(num_features);
+  for (int i = 0; i < num_features; ++i) {
+    msg::Keypoint& k = (*keypoints)[i];
+    k.x_px(752.0f * u(rng)); k.y_px(480.0f * u(rng)); k.angle_deg(360.0f * u(rng));
+    k.response(u(rng)); k.octave(static_cast<std::uint8_t>(rng() % 8));
+    (*descriptors)[i] = RandomDescriptor(rng);
+  }
+}
+
 std::uint64_t Seed(std::uint16_t agent, std::uint64_t index, std::uint64_t kind) {
   return (std::uint64_t{agent} << 48) ^ (index * 0x9E3779B97F4A7C15ull) ^ (kind << 40);
 }
@@ -32,24 +55,16 @@ std::uint64_t Seed(std::uint16_t agent, std::uint64_t index, std::uint64_t kind)
 
 msg::KeyframeFull MakeKeyframe(std::uint16_t agent, std::uint64_t index, int num_features, int num_associations) {
   std::mt19937_64 rng(Seed(agent, index, 1));
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
   msg::KeyframeFull kf;
   kf.protocol_version(msg::kProtocolVersion);
   kf.agent_id(agent);
   kf.id(KeyframeId::Make(agent, index + 1).packed());
+  kf.segment_id(MapId::Make(agent, 1).packed());
   kf.stamp_ns(static_cast<long long>(index) * 100000000LL);
-  msg::CameraInfo& cam = kf.camera();
-  cam.model(0); cam.width_px(752); cam.height_px(480);
-  cam.fx(458.654f); cam.fy(457.296f); cam.cx(367.215f); cam.cy(248.375f);
-  cam.distortion({-0.28340811f, 0.07395907f, 0.00019359f, 1.76187114e-05f});
-  kf.keypoints().resize(num_features);
-  kf.descriptors().resize(num_features);
-  for (int i = 0; i < num_features; ++i) {
-    msg::Keypoint& k = kf.keypoints()[i];
-    k.x_px(752.0f * u(rng)); k.y_px(480.0f * u(rng)); k.angle_deg(360.0f * u(rng));
-    k.response(u(rng)); k.octave(static_cast<std::uint8_t>(rng() % 8));
-    kf.descriptors()[i] = RandomDescriptor(rng);
-  }
+  kf.camera(EurocCamera());
+  kf.pyramid_levels(8);
+  kf.pyramid_scale_factor(1.2f);
+  RandomFeatures(rng, num_features, &kf.keypoints(), &kf.descriptors());
   for (int i = 0; i < num_associations && i < num_features; ++i) {
     kf.mp_keypoint_index().push_back(static_cast<std::uint16_t>(i));
     kf.mp_ids().push_back(MapPointId::Make(agent, index * 1000 + i + 1).packed());
@@ -58,6 +73,8 @@ msg::KeyframeFull MakeKeyframe(std::uint16_t agent, std::uint64_t index, int num
   kf.pred_from_this(RandomPose(rng));
   kf.parent_id(kf.predecessor_id());
   kf.parent_from_this(RandomPose(rng));
+  kf.segment_from_this(RandomPose(rng));
+  kf.ref_kf_id(kf.id());
   return kf;
 }
 
@@ -70,6 +87,7 @@ msg::MapPointFull MakeMapPoint(std::uint16_t agent, std::uint64_t index, int num
   mp.protocol_version(msg::kProtocolVersion);
   mp.agent_id(agent);
   mp.id(MapPointId::Make(agent, index + 1).packed());
+  mp.segment_id(MapId::Make(agent, 1).packed());
   mp.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
   mp.x_ref(n(rng)); mp.y_ref(n(rng)); mp.z_ref(3.0f + n(rng));
   for (int i = 0; i < num_observations; ++i) {
@@ -87,6 +105,7 @@ msg::KeyframeUpdate MakeKeyframeUpdate(std::uint16_t agent, std::uint64_t index)
   msg::KeyframeUpdate u;
   u.protocol_version(msg::kProtocolVersion);
   u.agent_id(agent);
+  u.segment_counter(1);
   u.id(KeyframeId::Make(agent, index + 1).packed());
   u.predecessor_id(KeyframeId::Make(agent, index).packed());
   u.parent_id(KeyframeId::Make(agent, index).packed());
@@ -101,6 +120,7 @@ msg::MapPointUpdate MakeMapPointUpdate(std::uint16_t agent, std::uint64_t index)
   msg::MapPointUpdate u;
   u.protocol_version(msg::kProtocolVersion);
   u.agent_id(agent);
+  u.segment_counter(1);
   u.id(MapPointId::Make(agent, index + 1).packed());
   u.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
   u.x_ref(n(rng)); u.y_ref(n(rng)); u.z_ref(n(rng));
@@ -126,8 +146,32 @@ msg::ServerToAgent MakeServerToAgent(std::uint16_t agent, int num_keyframes, int
   m.agent_id(agent);
   m.ref_kf_id(KeyframeId::Make(agent, 1).packed());
   for (int i = 0; i < num_acks; ++i) m.acked_kf_ids().push_back(KeyframeId::Make(agent, i + 1).packed());
-  for (int i = 0; i < num_keyframes; ++i) m.keyframes().push_back(MakeKeyframe(agent + 1, i, features_per_kf, features_per_kf / 3));
-  for (int i = 0; i < num_map_points; ++i) m.map_points().push_back(MakeMapPoint(agent + 1, i, 4));
+  // Other agents' data, as the server shares it.
+  for (int i = 0; i < num_keyframes; ++i) {
+    std::mt19937_64 rng(Seed(agent + 1, i, 5));
+    msg::ServerKeyframe kf;
+    kf.id(KeyframeId::Make(agent + 1, i + 1).packed());
+    kf.stamp_ns(static_cast<long long>(i) * 100000000LL);
+    kf.camera(EurocCamera());
+    RandomFeatures(rng, features_per_kf, &kf.keypoints(), &kf.descriptors());
+    kf.pyramid_levels(8);
+    kf.pyramid_scale_factor(1.2f);
+    kf.ref_from_this(RandomPose(rng));
+    m.keyframes().push_back(std::move(kf));
+  }
+  for (int i = 0; i < num_map_points; ++i) {
+    std::mt19937_64 rng(Seed(agent + 1, i, 6));
+    std::normal_distribution<float> n(0.0f, 1.0f);
+    msg::ServerMapPoint mp;
+    mp.id(MapPointId::Make(agent + 1, i + 1).packed());
+    mp.x_ref(n(rng)); mp.y_ref(n(rng)); mp.z_ref(3.0f + n(rng));
+    mp.descriptor(RandomDescriptor(rng));
+    for (int o = 0; o < 4 && num_keyframes > 0; ++o) {
+      mp.obs_kf_ids().push_back(KeyframeId::Make(agent + 1, (i + o) % num_keyframes + 1).packed());
+      mp.obs_keypoint_index().push_back(static_cast<std::uint16_t>(rng() % std::max(1, features_per_kf)));
+    }
+    m.map_points().push_back(std::move(mp));
+  }
   return m;
 }
 

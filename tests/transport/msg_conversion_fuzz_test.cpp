@@ -1,0 +1,317 @@
+// Fuzz test of the conversion layer: 100,000 mutated or truncated messages built from real
+// data (agent 1's VO on 100 simulator frames of hall3, and the server's replies to it) go
+// through FromMsg; every accepted agent message is submitted to a ServerBackend that already
+// holds the real data. No crash, every message accounted for, and nothing FromMsg accepted
+// fails the back-end's own validation. Deterministic seed. Run under sanitizers by
+// deploy/run-sanitizer-tests.sh.
+#include <gtest/gtest.h>
+
+#include <iostream>
+#include <map>
+
+#include "idl/ccm_msgsPubSubTypes.h"
+#include "runtime_common/msg_conversion.h"
+#include "tests/slam_core/server/server_test_util.h"
+#include "tests/transport/conversion_test_data.h"
+#include "tests/transport/msg_mutator.h"
+
+namespace ccm {
+namespace {
+
+using testing::MsgMutator;
+constexpr AgentId kAgent = 1;
+
+struct BaseMessages {
+  std::vector<msg::KeyframeFull> keyframes;
+  std::vector<msg::MapPointFull> map_points;
+  std::vector<msg::KeyframeUpdate> keyframe_updates;
+  std::vector<msg::MapPointUpdate> map_point_updates;
+  std::vector<msg::ServerToAgent> server;
+};
+
+// Agent messages of every batch, as the agent's comm module would send them.
+void AddAgentMessages(const AgentBatch& b, BaseMessages* out) {
+  for (const auto& kf : b.keyframes) out->keyframes.push_back(conv::ToMsg(kf, b.reference_kf));
+  for (const auto& mp : b.map_points) out->map_points.push_back(conv::ToMsg(mp));
+  for (const auto& u : b.keyframe_updates) out->keyframe_updates.push_back(conv::ToMsg(u));
+  for (const auto& u : b.map_point_updates) out->map_point_updates.push_back(conv::ToMsg(u, b.segment));
+}
+
+// Mutates one random field of a keyframe.
+void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
+  msg::CameraInfo& cam = m->camera();
+  msg::Keypoint* kp = m->keypoints().empty() ? nullptr : &m->keypoints()[z.Index(m->keypoints().size())];
+  switch (z.rng()() % 16) {
+    case 0: m->protocol_version(z.Version()); break;
+    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 2: m->id(z.Id(m->id())); break;
+    case 3: m->segment_id(z.Id(m->segment_id())); break;
+    case 4: m->stamp_ns(z.Integer(m->stamp_ns())); break;
+    case 5: cam.model(z.Integer(cam.model())); cam.width_px(z.Chance(0.5) ? z.Integer(cam.width_px()) : cam.width_px()); break;
+    case 6: cam.fx(z.Realf(cam.fx())); cam.cy(z.Chance(0.3) ? z.Realf(cam.cy()) : cam.cy()); break;
+    case 7: if (!cam.distortion().empty() && z.Chance(0.5)) cam.distortion()[0] = z.Realf(cam.distortion()[0]); else z.Resize(&cam.distortion()); break;
+    case 8: m->pyramid_levels(z.Integer(m->pyramid_levels())); break;
+    case 9: m->pyramid_scale_factor(z.Realf(m->pyramid_scale_factor())); break;
+    case 10:
+      if (!kp) break;
+      switch (z.rng()() % 5) {
+        case 0: kp->x_px(z.Realf(kp->x_px())); break;
+        case 1: kp->y_px(z.Realf(kp->y_px())); break;
+        case 2: kp->angle_deg(z.Realf(kp->angle_deg())); break;
+        case 3: kp->response(z.Realf(kp->response())); break;
+        default: kp->octave(z.Integer(kp->octave())); break;
+      }
+      break;
+    case 11: z.Chance(0.5) ? z.Resize(&m->keypoints()) : z.Resize(&m->descriptors()); break;
+    case 12:
+      if (!m->mp_keypoint_index().empty() && z.Chance(0.5)) {
+        auto& i = m->mp_keypoint_index()[z.Index(m->mp_keypoint_index().size())];
+        i = z.Integer(i);
+      } else {
+        z.Chance(0.5) ? z.Resize(&m->mp_keypoint_index()) : z.Resize(&m->mp_ids());
+      }
+      break;
+    case 13:
+      if (!m->mp_ids().empty()) { auto& id = m->mp_ids()[z.Index(m->mp_ids().size())]; id = z.Id(id); }
+      break;
+    case 14: z.Chance(0.5) ? m->predecessor_id(z.Id(m->predecessor_id())) : m->parent_id(z.Id(m->parent_id())); break;
+    default: {
+      msg::Pose* poses[] = {&m->pred_from_this(), &m->parent_from_this(), &m->segment_from_this()};
+      z.Pose(poses[z.Index(3)]);
+      break;
+    }
+  }
+}
+
+void MutateMapPoint(MsgMutator& z, msg::MapPointFull* m) {
+  switch (z.rng()() % 10) {
+    case 0: m->protocol_version(z.Version()); break;
+    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 2: m->id(z.Id(m->id())); break;
+    case 3: m->segment_id(z.Id(m->segment_id())); break;
+    case 4: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
+    case 5: m->x_ref(z.Realf(m->x_ref())); break;
+    case 6: m->nz(z.Realf(m->nz())); break;
+    case 7: z.Chance(0.5) ? z.Resize(&m->obs_kf_ids()) : z.Resize(&m->obs_keypoint_index()); break;
+    case 8: if (!m->obs_kf_ids().empty()) { auto& id = m->obs_kf_ids()[z.Index(m->obs_kf_ids().size())]; id = z.Id(id); } break;
+    default: if (!m->obs_keypoint_index().empty()) { auto& i = m->obs_keypoint_index()[0]; i = z.Integer(i); } break;
+  }
+}
+
+void MutateKeyframeUpdate(MsgMutator& z, msg::KeyframeUpdate* m) {
+  switch (z.rng()() % 9) {
+    case 0: m->protocol_version(z.Version()); break;
+    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 2: m->id(z.Id(m->id())); break;
+    case 3: m->segment_counter(z.Integer(m->segment_counter())); break;
+    case 4: m->predecessor_id(z.Id(m->predecessor_id())); break;
+    case 5: m->parent_id(z.Id(m->parent_id())); break;
+    case 6: z.Pose(&m->pred_from_this()); break;
+    case 7: z.Pose(&m->parent_from_this()); break;
+    default: {  // sent by another agent, consistently
+      const AgentId a = z.Chance(0.2) ? 0 : z.OtherAgent(m->agent_id());
+      m->agent_id(a);
+      m->id(MsgMutator::Readdress(m->id(), a));
+      m->predecessor_id(MsgMutator::Readdress(m->predecessor_id(), a));
+      break;
+    }
+  }
+}
+
+void MutateMapPointUpdate(MsgMutator& z, msg::MapPointUpdate* m) {
+  switch (z.rng()() % 8) {
+    case 0: m->protocol_version(z.Version()); break;
+    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 2: m->id(z.Id(m->id())); break;
+    case 3: m->segment_counter(z.Integer(m->segment_counter())); break;
+    case 4: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
+    case 5: m->y_ref(z.Realf(m->y_ref())); break;
+    case 6: m->z_ref(z.Realf(m->z_ref())); break;
+    default: {  // sent by another agent, consistently
+      const AgentId a = z.Chance(0.2) ? 0 : z.OtherAgent(m->agent_id());
+      m->agent_id(a);
+      m->id(MsgMutator::Readdress(m->id(), a));
+      m->ref_kf_id(MsgMutator::Readdress(m->ref_kf_id(), a));
+      break;
+    }
+  }
+}
+
+void MutateServer(MsgMutator& z, msg::ServerToAgent* m) {
+  msg::ServerKeyframe* kf = m->keyframes().empty() ? nullptr : &m->keyframes()[z.Index(m->keyframes().size())];
+  msg::ServerMapPoint* mp = m->map_points().empty() ? nullptr : &m->map_points()[z.Index(m->map_points().size())];
+  switch (z.rng()() % 12) {
+    case 0: m->protocol_version(z.Version()); break;
+    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 2: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
+    case 3: if (!m->acked_kf_ids().empty()) m->acked_kf_ids()[0] = z.Id(m->acked_kf_ids()[0]); else z.Resize(&m->acked_mp_ids()); break;
+    case 4: z.Chance(0.5) ? z.Resize(&m->keyframes()) : z.Resize(&m->map_points()); break;
+    case 5: if (kf) kf->id(z.Id(kf->id())); break;
+    case 6: if (kf) z.Pose(&kf->ref_from_this()); break;
+    case 7: if (kf) { kf->pyramid_levels(z.Integer(kf->pyramid_levels())); kf->camera().fy(z.Chance(0.3) ? z.Realf(kf->camera().fy()) : kf->camera().fy()); } break;
+    case 8: if (kf && !kf->keypoints().empty()) { auto& k = kf->keypoints()[z.Index(kf->keypoints().size())]; k.x_px(z.Realf(k.x_px())); k.octave(z.Chance(0.3) ? z.Integer(k.octave()) : k.octave()); } break;
+    case 9: if (kf) z.Chance(0.5) ? z.Resize(&kf->keypoints()) : z.Resize(&kf->descriptors()); break;
+    case 10: if (mp) { mp->z_ref(z.Realf(mp->z_ref())); if (!mp->obs_kf_ids().empty()) mp->obs_kf_ids()[0] = z.Id(mp->obs_kf_ids()[0]); } break;
+    default: if (mp) { z.Chance(0.5) ? z.Resize(&mp->obs_kf_ids()) : z.Resize(&mp->obs_keypoint_index()); if (!mp->obs_keypoint_index().empty()) mp->obs_keypoint_index()[0] = z.Integer(mp->obs_keypoint_index()[0]); } break;
+  }
+}
+
+// Byte-level: serialize, flip bits or cut the payload, deserialize. False when the
+// deserializer refuses the bytes.
+template <typename PubSubT>
+bool MutateBytes(MsgMutator& z, typename PubSubT::type* m) {
+  PubSubT type;
+  eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(m)());
+  if (!type.serialize(m, &payload)) return false;
+  if (z.Chance(0.4)) {
+    payload.length = static_cast<std::uint32_t>(z.Index(payload.length));  // truncated datagram
+  } else {
+    const int flips = 1 + static_cast<int>(z.Index(4));
+    for (int i = 0; i < flips && payload.length > 4; ++i) {
+      payload.data[4 + z.Index(payload.length - 4)] ^= static_cast<std::uint8_t>(1u << z.Index(8));  // body only
+    }
+  }
+  typename PubSubT::type back;
+  if (!type.deserialize(&payload, &back)) return false;
+  *m = std::move(back);
+  return true;
+}
+
+// 1-3 field mutations (85 %) or one byte-level mutation (15 %).
+template <typename PubSubT, typename Fn>
+bool Mutate(MsgMutator& z, typename PubSubT::type* m, Fn field_mutation) {
+  if (z.Chance(0.15)) return MutateBytes<PubSubT>(z, m);
+  const int n = 1 + static_cast<int>(z.Index(3));
+  for (int i = 0; i < n; ++i) field_mutation(z, m);
+  return true;
+}
+
+// Accepted items, grouped the way a server comm module would batch them.
+class BatchSink {
+ public:
+  AgentBatch& For(AgentId agent, MapId segment, KeyframeId reference = {}) {
+    AgentBatch& b = batches_[{agent, segment}];
+    b.agent = agent;
+    b.segment = segment;
+    if (reference.valid()) b.reference_kf = reference;
+    return b;
+  }
+  void Flush(ServerBackend* backend, int* refused) {
+    for (auto& [key, batch] : batches_) {
+      if (backend->Submit(std::move(batch)) < 0) ++*refused;
+    }
+    batches_.clear();
+  }
+
+ private:
+  std::map<std::pair<AgentId, MapId>, AgentBatch> batches_;
+};
+
+TEST(MsgConversionFuzz, HundredThousandHostileMessagesNeverCrashTheBackend) {
+  const auto sim = testing::LoadSim("hall3");
+  ASSERT_TRUE(sim);
+  const testing::VoStream stream = testing::RunVoStream(sim, 0, 0, 100, 5);
+  ASSERT_FALSE(stream.batches.empty());
+  ServerOptions options;
+  options.max_agents = 4;  // messages re-addressed to other agents also meet the refusal
+  options.optimization.global_ba_threads = 1;
+  ASSERT_TRUE(testing::SimVocabulary());
+  ServerBackend backend(testing::SimVocabulary(), options);
+
+  // Base messages; the unmutated ones must all pass (real data) and go to the back-end.
+  BaseMessages base;
+  conv::CameraCache cameras(8);
+  for (const AgentBatch& b : stream.batches) AddAgentMessages(b, &base);
+  std::string error;
+  for (const auto& m : base.keyframes) ASSERT_TRUE(conv::FromMsg(m, &cameras, &error)) << error;
+  for (const auto& m : base.map_points) ASSERT_TRUE(conv::FromMsg(m, &error)) << error;
+  for (const auto& m : base.keyframe_updates) ASSERT_TRUE(conv::FromMsg(m, &error)) << error;
+  for (const auto& m : base.map_point_updates) ASSERT_TRUE(conv::FromMsg(m, &error)) << error;
+  for (const AgentBatch& b : stream.batches) backend.Submit(b);
+  backend.ProcessAllQueued();
+  for (const AgentBatch& b : stream.batches) {
+    const AgentAcks acks = backend.TakeAcks(kAgent);
+    if (const auto data = backend.Neighbourhood(kAgent, b.reference_kf)) {
+      base.server.push_back(conv::ToMsg(kAgent, b.stamp_ns, acks.keyframes, acks.map_points, &*data));
+    }
+  }
+  const ServerMapData synthetic = testing::MakeServerMapData(kAgent, 5, 500, 300);
+  base.server.push_back(conv::ToMsg(kAgent, 1, {KeyframeId::Make(kAgent, 1)}, {}, &synthetic));
+  for (const auto& m : base.server) ASSERT_TRUE(conv::FromMsg(m, kAgent, &cameras, &error)) << error;
+  std::cout << "base: " << base.keyframes.size() << " keyframes, " << base.map_points.size() << " points, "
+            << base.keyframe_updates.size() << " + " << base.map_point_updates.size() << " updates, "
+            << base.server.size() << " server messages\n";
+  ASSERT_FALSE(base.keyframes.empty() || base.map_points.empty() || base.keyframe_updates.empty() ||
+               base.map_point_updates.empty());
+
+  constexpr int kTotal = 100000;
+  MsgMutator z(20240611);
+  BatchSink sink;
+  int accepted = 0, rejected = 0, refused_batches = 0;
+  std::map<std::string, int> reasons;
+  for (int i = 0; i < kTotal; ++i) {
+    error.clear();
+    bool ok = false;
+    const int kind = static_cast<int>(z.Index(100));
+    if (kind < 30) {
+      msg::KeyframeFull m = base.keyframes[z.Index(base.keyframes.size())];
+      KeyframeId ref;
+      std::optional<KeyframeData> kf;
+      if (Mutate<msg::KeyframeFullPubSubType>(z, &m, MutateKeyframe) && (kf = conv::FromMsg(m, &cameras, &error, &ref))) {
+        sink.For(m.agent_id(), kf->segment, ref).keyframes.push_back(std::move(*kf));
+        ok = true;
+      }
+    } else if (kind < 55) {
+      msg::MapPointFull m = base.map_points[z.Index(base.map_points.size())];
+      std::optional<MapPointData> mp;
+      if (Mutate<msg::MapPointFullPubSubType>(z, &m, MutateMapPoint) && (mp = conv::FromMsg(m, &error))) {
+        sink.For(m.agent_id(), mp->segment).map_points.push_back(std::move(*mp));
+        ok = true;
+      }
+    } else if (kind < 70) {
+      msg::KeyframeUpdate m = base.keyframe_updates[z.Index(base.keyframe_updates.size())];
+      std::optional<KeyframePoseUpdate> u;
+      if (Mutate<msg::KeyframeUpdatePubSubType>(z, &m, MutateKeyframeUpdate) && (u = conv::FromMsg(m, &error))) {
+        sink.For(m.agent_id(), u->segment).keyframe_updates.push_back(*u);
+        ok = true;
+      }
+    } else if (kind < 85) {
+      msg::MapPointUpdate m = base.map_point_updates[z.Index(base.map_point_updates.size())];
+      std::optional<MapPointPositionUpdate> u;
+      MapId segment;
+      if (Mutate<msg::MapPointUpdatePubSubType>(z, &m, MutateMapPointUpdate) && (u = conv::FromMsg(m, &error, &segment))) {
+        sink.For(m.agent_id(), segment).map_point_updates.push_back(*u);
+        ok = true;
+      }
+    } else {
+      msg::ServerToAgent m = base.server[z.Index(base.server.size())];
+      ok = Mutate<msg::ServerToAgentPubSubType>(z, &m, MutateServer) && conv::FromMsg(m, kAgent, &cameras, &error);
+    }
+    if (ok) {
+      ++accepted;
+    } else {
+      ++rejected;
+      ++reasons[error.empty() ? "payload refused by the deserializer" : conv::ReasonKind(error)];
+    }
+    if (i % 200 == 199) sink.Flush(&backend, &refused_batches);
+    if (i % 5000 == 4999) backend.ProcessAllQueued();
+  }
+  sink.Flush(&backend, &refused_batches);
+  backend.ProcessAllQueued();
+
+  EXPECT_EQ(accepted + rejected, kTotal);
+  EXPECT_GT(accepted, kTotal / 10);
+  EXPECT_GT(rejected, kTotal / 10);
+  int64_t backend_rejected = 0;
+  for (const auto& [agent, c] : backend.stats().agents) backend_rejected += c.rejected;
+  EXPECT_EQ(backend_rejected, 0) << "FromMsg let through what the back-end's validation refuses";
+  std::cout << accepted << " accepted, " << rejected << " rejected (" << reasons.size() << " kinds), "
+            << refused_batches << " batches refused by the back-end (agents beyond max_agents / agent 0)\n";
+  int shown = 0;
+  for (const auto& [reason, count] : reasons) {
+    if (shown++ < 200) std::cout << "  " << count << "  " << reason << "\n";
+  }
+}
+
+}  // namespace
+}  // namespace ccm

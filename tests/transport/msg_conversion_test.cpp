@@ -1,0 +1,236 @@
+// Round trips value -> IDL message -> value through the conversion layer for every type,
+// both camera models, the IDL bounds on sending, and the camera cache.
+#include <gtest/gtest.h>
+
+#include "idl/ccm_msgsPubSubTypes.h"
+#include "runtime_common/msg_conversion.h"
+#include "tests/transport/conversion_test_data.h"
+
+namespace ccm {
+namespace {
+
+using conv::FromMsg;
+using conv::ToMsg;
+
+void ExpectSamePose(const SE3& a, const SE3& b) {
+  EXPECT_LT((a.translation() - b.translation()).norm(), 1e-12);
+  EXPECT_LT(a.rotation().angularDistance(b.rotation()), 1e-9);
+}
+
+// Intrinsics travel as float.
+void ExpectSameCamera(const CameraModel& a, const CameraModel& b) {
+  const CameraIntrinsics &x = a.intrinsics(), &y = b.intrinsics();
+  EXPECT_EQ(x.type, y.type);
+  EXPECT_EQ(x.width_px, y.width_px);
+  EXPECT_EQ(x.height_px, y.height_px);
+  const std::pair<double, double> values[] = {{x.fx, y.fx}, {x.fy, y.fy}, {x.cx, y.cx}, {x.cy, y.cy}};
+  for (const auto& [u, v] : values) EXPECT_EQ(static_cast<float>(u), static_cast<float>(v));
+  ASSERT_EQ(x.distortion.size(), y.distortion.size());
+  for (size_t i = 0; i < x.distortion.size(); ++i) {
+    EXPECT_EQ(static_cast<float>(x.distortion[i]), static_cast<float>(y.distortion[i]));
+  }
+}
+
+void ExpectSameFeatures(const FrameFeatures& a, const FrameFeatures& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.descriptors, b.descriptors);
+  for (size_t i = 0; i < a.size(); ++i) {
+    const Keypoint &x = a.keypoints[i], &y = b.keypoints[i];
+    ASSERT_TRUE(x.u == y.u && x.v == y.v && x.angle_deg == y.angle_deg && x.response == y.response &&
+                x.level == y.level)
+        << "keypoint " << i;
+  }
+}
+
+void ExpectKeyframeRoundTrip(const CameraIntrinsics& intrinsics) {
+  const KeyframeData kf = testing::MakeKeyframeData(3, 12, intrinsics, 600);
+  const KeyframeId reference = KeyframeId::Make(4, 2);  // another agent's keyframe the agent tracks
+  conv::CameraCache cameras;
+  std::string error;
+  KeyframeId reference_back;
+  const auto back = FromMsg(ToMsg(kf, reference), &cameras, &error, &reference_back);
+  ASSERT_TRUE(back) << error;
+  EXPECT_EQ(back->id, kf.id);
+  EXPECT_EQ(back->segment, kf.segment);
+  EXPECT_EQ(back->stamp_ns, kf.stamp_ns);
+  EXPECT_EQ(reference_back, reference);
+  ExpectSameCamera(*back->camera, *kf.camera);
+  EXPECT_EQ(back->pyramid_levels, kf.pyramid_levels);
+  EXPECT_FLOAT_EQ(back->pyramid_scale_factor, kf.pyramid_scale_factor);
+  ExpectSameFeatures(*back->features, *kf.features);
+  EXPECT_EQ(back->point_links, kf.point_links);
+  EXPECT_EQ(back->predecessor, kf.predecessor);
+  EXPECT_EQ(back->parent, kf.parent);
+  ExpectSamePose(back->pred_from_cam, kf.pred_from_cam);
+  ExpectSamePose(back->parent_from_cam, kf.parent_from_cam);
+  ExpectSamePose(back->segment_from_cam, kf.segment_from_cam);
+}
+
+TEST(MsgConversion, KeyframeRoundTripPinholeRadTan) { ExpectKeyframeRoundTrip(testing::PinholeIntrinsics()); }
+
+TEST(MsgConversion, KeyframeRoundTripFisheyeEquidistant) { ExpectKeyframeRoundTrip(testing::FisheyeIntrinsics()); }
+
+TEST(MsgConversion, FirstKeyframeWithoutPredecessorParentOrReference) {
+  KeyframeData kf = testing::MakeKeyframeData(2, 1, testing::PinholeIntrinsics(), 50);
+  kf.parent = KeyframeId::Invalid();
+  kf.point_links.clear();
+  KeyframeId reference = KeyframeId::Make(2, 5);
+  std::string error;
+  const auto back = FromMsg(ToMsg(kf, KeyframeId::Invalid()), nullptr, &error, &reference);
+  ASSERT_TRUE(back) << error;
+  EXPECT_FALSE(back->predecessor.valid());
+  EXPECT_FALSE(back->parent.valid());
+  EXPECT_FALSE(reference.valid());
+  EXPECT_TRUE(back->point_links.empty());
+}
+
+TEST(MsgConversion, KeyframeBeyondTheKeypointBoundLosesTheRestAndItsLinks) {
+  KeyframeData kf = testing::MakeKeyframeData(1, 5, testing::PinholeIntrinsics(), msg::kMaxKeypoints + 300);
+  const msg::KeyframeFull m = ToMsg(kf, KeyframeId::Invalid());
+  EXPECT_EQ(m.keypoints().size(), msg::kMaxKeypoints);
+  EXPECT_EQ(m.descriptors().size(), msg::kMaxKeypoints);
+  for (auto index : m.mp_keypoint_index()) EXPECT_LT(index, msg::kMaxKeypoints);
+  std::string error;
+  EXPECT_TRUE(FromMsg(m, nullptr, &error)) << error;
+}
+
+TEST(MsgConversion, MapPointRoundTrip) {
+  const MapPointData mp = testing::MakeMapPointData(6, 77);
+  std::string error;
+  const auto back = FromMsg(ToMsg(mp), &error);
+  ASSERT_TRUE(back) << error;
+  EXPECT_EQ(back->id, mp.id);
+  EXPECT_EQ(back->segment, mp.segment);
+  EXPECT_EQ(back->reference_kf, mp.reference_kf);
+  EXPECT_LT((back->position_ref - mp.position_ref).norm(), 1e-6 * mp.position_ref.norm());  // float
+  EXPECT_EQ(back->descriptor, mp.descriptor);
+  EXPECT_EQ(back->observations, mp.observations);
+}
+
+TEST(MsgConversion, MapPointBeyondTheObservationBoundLosesTheRest) {
+  const MapPointData mp = testing::MakeMapPointData(6, 78, msg::kMaxObservations + 10);
+  EXPECT_EQ(ToMsg(mp).obs_kf_ids().size(), msg::kMaxObservations);
+  std::string error;
+  EXPECT_TRUE(FromMsg(ToMsg(mp), &error)) << error;
+}
+
+TEST(MsgConversion, KeyframeUpdateRoundTrip) {
+  const KeyframePoseUpdate u = testing::MakeKeyframePoseUpdate(9, 40);
+  std::string error;
+  const auto back = FromMsg(ToMsg(u), &error);
+  ASSERT_TRUE(back) << error;
+  EXPECT_EQ(back->id, u.id);
+  EXPECT_EQ(back->segment, u.segment);
+  EXPECT_EQ(back->predecessor, u.predecessor);
+  EXPECT_EQ(back->parent, u.parent);
+  ExpectSamePose(back->pred_from_cam, u.pred_from_cam);
+  ExpectSamePose(back->parent_from_cam, u.parent_from_cam);
+}
+
+TEST(MsgConversion, MapPointUpdateRoundTripCarriesTheSegment) {
+  const MapPointPositionUpdate u = testing::MakeMapPointPositionUpdate(9, 41);
+  std::string error;
+  MapId segment;
+  const auto back = FromMsg(ToMsg(u, MapId::Make(9, 3)), &error, &segment);
+  ASSERT_TRUE(back) << error;
+  EXPECT_EQ(back->id, u.id);
+  EXPECT_EQ(back->reference_kf, u.reference_kf);
+  EXPECT_EQ(back->position_ref, u.position_ref);  // exactly representable in float
+  EXPECT_EQ(segment, MapId::Make(9, 3));
+  // A segment that cannot travel is sent as 0, which receivers reject.
+  EXPECT_EQ(ToMsg(u, MapId::Make(9, std::uint64_t{1} << 40)).segment_counter(), 0u);
+  EXPECT_EQ(ToMsg(u, MapId::Make(8, 3)).segment_counter(), 0u);
+}
+
+TEST(MsgConversion, ServerMessageRoundTrip) {
+  const ServerMapData data = testing::MakeServerMapData(2, 5, 800, 400);
+  const std::vector<KeyframeId> acked_kfs = {KeyframeId::Make(2, 1), KeyframeId::Make(2, 2)};
+  const std::vector<MapPointId> acked_mps = {MapPointId::Make(2, 10)};
+  conv::CameraCache cameras;
+  std::string error;
+  const auto back = FromMsg(ToMsg(2, 123456789, acked_kfs, acked_mps, &data), 2, &cameras, &error);
+  ASSERT_TRUE(back) << error;
+  EXPECT_EQ(back->stamp_ns, 123456789);
+  EXPECT_EQ(back->acked_kfs, acked_kfs);
+  EXPECT_EQ(back->acked_mps, acked_mps);
+  ASSERT_TRUE(back->data);
+  EXPECT_EQ(back->data->reference_kf, data.reference_kf);
+  ASSERT_EQ(back->data->keyframes.size(), data.keyframes.size());
+  for (size_t i = 0; i < data.keyframes.size(); ++i) {
+    const ServerKeyframe &a = back->data->keyframes[i], &b = data.keyframes[i];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.stamp_ns, b.stamp_ns);
+    ExpectSameCamera(*a.camera, *b.camera);
+    ExpectSameFeatures(*a.features, *b.features);
+    ExpectSamePose(a.ref_from_cam, b.ref_from_cam);
+  }
+  EXPECT_EQ(cameras.size(), 2u);  // two calibrations among five keyframes
+  ASSERT_EQ(back->data->map_points.size(), data.map_points.size());
+  for (size_t i = 0; i < data.map_points.size(); ++i) {
+    const ServerMapPoint &a = back->data->map_points[i], &b = data.map_points[i];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_LT((a.position_ref - b.position_ref).norm(), 1e-6 * b.position_ref.norm());
+    EXPECT_EQ(a.descriptor, b.descriptor);
+    EXPECT_EQ(a.observations, b.observations);
+  }
+}
+
+TEST(MsgConversion, ServerMessageWithAcksOnlyHasNoMapData) {
+  std::string error;
+  const auto back = FromMsg(ToMsg(4, 1, {KeyframeId::Make(4, 3)}, {}, nullptr), 4, nullptr, &error);
+  ASSERT_TRUE(back) << error;
+  EXPECT_EQ(back->acked_kfs, std::vector<KeyframeId>{KeyframeId::Make(4, 3)});
+  EXPECT_FALSE(back->data);
+}
+
+TEST(MsgConversion, ServerMessageRespectsEveryIdlBoundAndSerializes) {
+  ServerMapData data = testing::MakeServerMapData(1, msg::kMaxKeyframesPerServerMsg + 4, 50,
+                                                  msg::kMaxMapPointsPerServerMsg + 100);
+  for (int i = 0; i < 100; ++i) data.map_points[0].observations.emplace_back(KeyframeId::Make(1, 200 + i), i);
+  std::vector<KeyframeId> acks;
+  for (uint64_t i = 1; i <= msg::kMaxAcks + 50; ++i) acks.push_back(KeyframeId::Make(1, i));
+  msg::ServerToAgent m = ToMsg(1, 0, acks, {}, &data);
+  EXPECT_EQ(m.acked_kf_ids().size(), msg::kMaxAcks);
+  EXPECT_EQ(m.keyframes().size(), msg::kMaxKeyframesPerServerMsg);
+  EXPECT_EQ(m.map_points().size(), msg::kMaxMapPointsPerServerMsg);
+  EXPECT_EQ(m.map_points()[0].obs_kf_ids().size(), msg::kMaxObservations);
+  // Observations of the keyframes left out are left out too.
+  const KeyframeId left_out = data.keyframes.back().id;
+  for (const auto& mp : m.map_points()) {
+    for (auto id : mp.obs_kf_ids()) ASSERT_NE(id, left_out.packed());
+  }
+  msg::ServerToAgentPubSubType type;
+  eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(&m)());
+  EXPECT_TRUE(type.serialize(&m, &payload));
+  std::string error;
+  EXPECT_TRUE(FromMsg(m, 1, nullptr, &error)) << error;
+}
+
+TEST(MsgConversion, CameraCacheSharesOneModelPerCalibrationAndStaysBounded) {
+  conv::CameraCache cameras(2);
+  std::string error;
+  const auto a = cameras.Get(testing::PinholeIntrinsics(), &error);
+  const auto b = cameras.Get(testing::PinholeIntrinsics(), &error);
+  ASSERT_TRUE(a);
+  EXPECT_EQ(a.get(), b.get());
+  const auto fisheye = cameras.Get(testing::FisheyeIntrinsics(), &error);
+  EXPECT_NE(fisheye.get(), a.get());
+  CameraIntrinsics third = testing::PinholeIntrinsics();
+  third.fx += 1.0;
+  cameras.Get(third, &error);
+  EXPECT_EQ(cameras.size(), 2u);
+  // The pinhole model was least recently used: it went, and a holder keeps it alive.
+  EXPECT_NE(cameras.Get(testing::PinholeIntrinsics(), &error).get(), a.get());
+  CameraIntrinsics bad = third;
+  bad.fx = -1;
+  EXPECT_FALSE(cameras.Get(bad, &error));
+  EXPECT_EQ(error, "fx and fy must be > 0");
+}
+
+TEST(MsgConversion, ReasonKindDropsTheNumbers) {
+  EXPECT_EQ(conv::ReasonKind("keyframe: keypoint 12 outside the image"), "keyframe: keypoint # outside the image");
+  EXPECT_EQ(conv::ReasonKind("map point: id 3:17 is invalid"), "map point: id #:# is invalid");
+}
+
+}  // namespace
+}  // namespace ccm
