@@ -2,35 +2,63 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <unordered_map>
+
 #include "runtime_common/topics.h"
 
 namespace ccm::agent {
+namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Bytes a message takes on the wire (close enough for the rate limit).
+size_t WireBytes(const msg::KeyframeFull& m) {
+  return 160 + m.keypoints().size() * 20 + m.descriptors().size() * 32 + m.mp_ids().size() * 10;
+}
+size_t WireBytes(const msg::MapPointFull& m) { return 120 + m.obs_kf_ids().size() * 10; }
+
+int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
 std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::SessionOptions session_options,
-                                             std::string* error) {
+                                             AgentVo* vo, AckTracker* acks, std::string* error) {
   session_options.participant_name = "ccm_agent_" + std::to_string(config.agent_id);
   auto session = rt::DdsSession::Create(session_options, error);
   if (!session) return nullptr;
-  std::unique_ptr<AgentComm> comm(new AgentComm(config, std::move(session)));
-  rt::DdsSession& s = *comm->session_;
-  comm->keyframe_writer_ = rt::TypedWriter<msg::KeyframeFullPubSubType>::Create(
-      s, rt::kTopicKeyframes, rt::kProfileNewDataWriter, error);
-  if (!comm->keyframe_writer_) return nullptr;
-  comm->status_writer_ = rt::TypedWriter<msg::AgentStatusPubSubType>::Create(
-      s, rt::kTopicAgentStatus, rt::kProfileStatusWriter, error);
-  if (!comm->status_writer_) return nullptr;
-  comm->server_reader_ = rt::TypedReader<msg::ServerToAgentPubSubType>::Create(
-      s, rt::kTopicServerToAgent, rt::kProfileServerReader, {16, rt::OverflowPolicy::kDropOldest}, error);
-  if (!comm->server_reader_) return nullptr;
-  return comm;
+  std::unique_ptr<AgentComm> c(new AgentComm(config, std::move(session), vo, acks));
+  rt::DdsSession& s = *c->session_;
+  using namespace rt;
+  c->keyframe_writer_ = TypedWriter<msg::KeyframeFullPubSubType>::Create(s, kTopicKeyframes, kProfileNewDataWriter, error);
+  if (!c->keyframe_writer_) return nullptr;
+  c->point_writer_ = TypedWriter<msg::MapPointFullPubSubType>::Create(s, kTopicMapPoints, kProfileNewDataWriter, error);
+  if (!c->point_writer_) return nullptr;
+  c->kf_update_writer_ =
+      TypedWriter<msg::KeyframeUpdatePubSubType>::Create(s, kTopicKeyframeUpdates, kProfileUpdateWriter, error);
+  if (!c->kf_update_writer_) return nullptr;
+  c->mp_update_writer_ =
+      TypedWriter<msg::MapPointUpdatePubSubType>::Create(s, kTopicMapPointUpdates, kProfileUpdateWriter, error);
+  if (!c->mp_update_writer_) return nullptr;
+  c->status_writer_ = TypedWriter<msg::AgentStatusPubSubType>::Create(s, kTopicAgentStatus, kProfileStatusWriter, error);
+  if (!c->status_writer_) return nullptr;
+  // Only this agent's server messages: the topic is keyed by agent id and filtered.
+  c->server_reader_ = TypedReader<msg::ServerToAgentPubSubType>::Create(
+      s, kTopicServerToAgent, kProfileServerReader, {16, OverflowPolicy::kDropOldest}, error,
+      "agent_id = " + std::to_string(config.agent_id));
+  if (!c->server_reader_) return nullptr;
+  return c;
 }
 
-AgentComm::AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session)
+AgentComm::AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session, AgentVo* vo, AckTracker* acks)
     : config_(std::move(config)),
       session_(std::move(session)),
-      acks_(std::chrono::milliseconds(static_cast<int>(config_.resend_holdoff_s * 1000))) {}
+      vo_(vo),
+      acks_(acks),
+      packer_(static_cast<AgentId>(config_.agent_id)) {}
 
 AgentComm::~AgentComm() { Stop(); }
 
@@ -41,89 +69,181 @@ void AgentComm::Start() {
 
 void AgentComm::Stop() {
   if (!running_.exchange(false)) return;
-  outbox_.Close();
   thread_.join();
 }
-
-bool AgentComm::Send(msg::KeyframeFull keyframe) { return outbox_.Push(std::move(keyframe)); }
 
 AgentCommStats AgentComm::Stats() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   return stats_;
 }
 
-bool AgentComm::AllAcked() const {
+bool AgentComm::Drained() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  return stats_.kfs_unacked == 0;
+  return stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0;
 }
 
-void AgentComm::Transmit(const msg::KeyframeFull& kf, bool resend) {
-  const bool ok = keyframe_writer_->Write(kf);
-  acks_.OnSent(KeyframeId(kf.id()), Clock::now());
+bool AgentComm::WaitDrained(std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> lock(stats_mutex_);
+  return stats_cv_.wait_for(lock, timeout, [this] {
+    return (stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0) || !running_;
+  }) && stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0;
+}
+
+void AgentComm::Run() {
+  const auto publish_period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / config_.publish_rate_hz));
+  const auto status_period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / config_.status_rate_hz));
+  const auto ack_timeout = std::chrono::milliseconds(static_cast<int>(config_.ack_timeout_s * 1000));
+  auto next_publish = Clock::now(), next_status = Clock::now();
+  for (bool last = false; !last;) {
+    last = !running_;
+    // Sleep until the next publish tick, but handle server messages as they come.
+    const auto wake = std::min(next_publish, next_status);
+    const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
+    if (auto m = server_reader_->Pop(last ? std::chrono::milliseconds(0) : std::max(wait, std::chrono::milliseconds(0)))) {
+      HandleServerMessage(*m);
+      while (auto more = server_reader_->Pop(std::chrono::milliseconds(0))) HandleServerMessage(*more);
+    }
+    const auto now = Clock::now();
+    if (now >= next_publish || last) {
+      Resend(acks_->Overdue(ack_timeout, now));
+      PackChanges();
+      WriteBacklog();
+      next_publish = now + publish_period;
+    }
+    if (now >= next_status || last) {
+      PublishStatus();
+      next_status = now + status_period;
+    }
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      stats_.kfs_acked = acks_->acked_count();
+      stats_.kfs_unacked = acks_->unacked_count();
+    }
+    stats_cv_.notify_all();
+  }
+}
+
+void AgentComm::PackChanges() {
+  const auto t0 = Clock::now();
+  VoChanges changes = vo_->TakeChanges();
+  const AgentBatch batch = packer_.Pack(changes, NowNs());
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  reference_kf_ = batch.reference_kf;
+  segment_ = batch.segment;
+  for (const KeyframeData& kf : batch.keyframes) kf_backlog_.push_back(conv::ToMsg(kf, batch.reference_kf));
+  for (const MapPointData& mp : batch.map_points) mp_backlog_.push_back(conv::ToMsg(mp));
+  for (const KeyframePoseUpdate& u : batch.keyframe_updates) kf_updates_.push_back(conv::ToMsg(u));
+  for (const MapPointPositionUpdate& u : batch.map_point_updates) mp_updates_.push_back(conv::ToMsg(u, batch.segment));
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  if (!ok) ++stats_.write_failures;
-  (resend ? stats_.kfs_resent : stats_.kfs_sent)++;
+  stats_.pack_ms_max = std::max(stats_.pack_ms_max, ms);
+  stats_.pack_ms_total += ms;
+  ++stats_.packs;
+}
+
+void AgentComm::WriteBacklog() {
+  // New data first (keyframes before their points), up to the byte budget; updates are
+  // tiny and superseded by newer ones, so only the latest of each id goes, every cycle.
+  size_t budget = static_cast<size_t>(config_.max_bytes_per_cycle);
+  uint64_t kfs = 0, resent = 0, mps = 0, failures = 0;
+  while (!kf_backlog_.empty() && (budget >= WireBytes(kf_backlog_.front()) || kfs + resent == 0)) {
+    const msg::KeyframeFull& m = kf_backlog_.front();
+    budget -= std::min(budget, WireBytes(m));
+    failures += keyframe_writer_->Write(m) ? 0 : 1;
+    acks_->OnSent(KeyframeId(m.id()), Clock::now());
+    if (resend_ids_.erase(m.id())) {
+      ++resent;
+    } else {
+      ++kfs;
+    }
+    kf_backlog_.pop_front();
+  }
+  while (!mp_backlog_.empty() && budget >= WireBytes(mp_backlog_.front())) {
+    budget -= WireBytes(mp_backlog_.front());
+    failures += point_writer_->Write(mp_backlog_.front()) ? 0 : 1;
+    mp_backlog_.pop_front();
+    ++mps;
+  }
+  std::unordered_map<uint64_t, const msg::KeyframeUpdate*> latest_kf;
+  for (const auto& u : kf_updates_) latest_kf[u.id()] = &u;
+  for (const auto& [id, u] : latest_kf) failures += kf_update_writer_->Write(*u) ? 0 : 1;
+  std::unordered_map<uint64_t, const msg::MapPointUpdate*> latest_mp;
+  for (const auto& u : mp_updates_) latest_mp[u.id()] = &u;
+  for (const auto& [id, u] : latest_mp) failures += mp_update_writer_->Write(*u) ? 0 : 1;
+  kf_updates_.clear();
+  mp_updates_.clear();
+  size_t backlog = 0;
+  for (const auto& m : kf_backlog_) backlog += WireBytes(m);
+  for (const auto& m : mp_backlog_) backlog += WireBytes(m);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.kfs_sent += kfs;
+  stats_.kfs_resent += resent;
+  stats_.mps_sent += mps;
+  stats_.kf_updates_sent += latest_kf.size();
+  stats_.mp_updates_sent += latest_mp.size();
+  stats_.write_failures += failures;
+  stats_.backlog_bytes = backlog;
+}
+
+void AgentComm::Resend(const std::vector<KeyframeId>& ids) {
+  const auto map = vo_->map();
+  int resent = 0;
+  for (const KeyframeId id : ids) {
+    if (map && map->keyframe(id)) {
+      packer_.Resend(id);
+      resend_ids_.insert(id.packed());
+      ++resent;
+    } else {
+      acks_->Forget(id);  // it left the local map unacknowledged: the VO counted it as lost
+    }
+  }
+  (void)resent;  // counted when written (WriteBacklog)
 }
 
 void AgentComm::HandleServerMessage(const msg::ServerToAgent& message) {
-  if (message.protocol_version() != msg::kProtocolVersion || message.agent_id() != config_.agent_id) return;
-  std::vector<KeyframeId> acked;
-  for (auto id : message.acked_kf_ids()) acked.emplace_back(id);
-  for (KeyframeId id : acks_.OnAcked(acked, Clock::now())) {
-    if (auto it = unacked_.find(id); it != unacked_.end()) Transmit(it->second, true);
+  std::string error;
+  auto m = conv::FromMsg(message, static_cast<AgentId>(config_.agent_id), &cameras_, &error);
+  if (!m) {
+    const std::string kind = conv::ReasonKind(error);
+    if (std::find(rejection_kinds_logged_.begin(), rejection_kinds_logged_.end(), kind) == rejection_kinds_logged_.end()) {
+      spdlog::warn("agent {}: server message rejected ({}); further ones of this kind are only counted",
+                   config_.agent_id, error);
+      rejection_kinds_logged_.push_back(kind);
+    }
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.server_msgs_rejected;
+    return;
   }
-  for (KeyframeId id : acked) unacked_.erase(id);
+  Resend(acks_->OnAcked(m->acked_kfs, Clock::now()));
+  size_t received = 0;
+  if (m->data && config_.map_sharing) {
+    received = m->data->keyframes.size();
+    vo_->ApplyServerData(std::move(*m->data));
+  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.server_msgs;
+  stats_.server_keyframes_received += received;
 }
 
 void AgentComm::PublishStatus() {
   msg::AgentStatus status;
   status.protocol_version(msg::kProtocolVersion);
   status.agent_id(static_cast<std::uint16_t>(config_.agent_id));
-  status.stamp_ns(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count());
-  status.ref_kf_id(newest_.packed());
+  status.stamp_ns(NowNs());
+  status.ref_kf_id(reference_kf_.packed());
+  status.map_segment_id(segment_.packed());
   const AgentCommStats s = Stats();
+  const AgentVoStats vs = vo_->stats();
+  status.kfs_created(static_cast<std::uint32_t>(vs.keyframes_created));
   status.kfs_sent(static_cast<std::uint32_t>(s.kfs_sent));
   status.kfs_acked(static_cast<std::uint32_t>(s.kfs_acked));
   status.kfs_resent(static_cast<std::uint32_t>(s.kfs_resent));
-  status.kfs_lost(static_cast<std::uint32_t>(s.kfs_lost));
+  status.kfs_lost(static_cast<std::uint32_t>(vs.trim.removed_lost));
+  status.mps_sent(static_cast<std::uint32_t>(s.mps_sent));
   status.write_failures(static_cast<std::uint32_t>(s.write_failures));
-  status.tracking_state(1);
+  status.tracking_state(static_cast<std::uint8_t>(tracking_state_.load()));
   status_writer_->Write(status);
-}
-
-void AgentComm::Run() {
-  const auto status_period = std::chrono::duration<double>(1.0 / config_.status_rate_hz);
-  const auto ack_timeout = std::chrono::milliseconds(static_cast<int>(config_.ack_timeout_s * 1000));
-  const std::size_t capacity = static_cast<std::size_t>(config_.max_keyframes + config_.buffer_keyframes);
-  auto next_status = Clock::now();
-  while (running_) {
-    if (auto kf = outbox_.Pop(std::chrono::milliseconds(20))) {
-      newest_ = KeyframeId(kf->id());
-      Transmit(*kf, false);
-      unacked_[newest_] = std::move(*kf);
-      while (unacked_.size() > capacity) {  // CCM-SLAM: over N + B, the oldest is dropped (counted)
-        acks_.Forget(unacked_.begin()->first);
-        unacked_.erase(unacked_.begin());
-        std::lock_guard<std::mutex> lock(stats_mutex_);
-        ++stats_.kfs_lost;
-      }
-    }
-    while (auto message = server_reader_->Pop(std::chrono::milliseconds(0))) HandleServerMessage(*message);
-    for (KeyframeId id : acks_.Overdue(ack_timeout, Clock::now())) {
-      if (auto it = unacked_.find(id); it != unacked_.end()) Transmit(it->second, true);
-    }
-    {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      stats_.kfs_acked = acks_.acked_count();
-      stats_.kfs_unacked = unacked_.size();
-    }
-    if (Clock::now() >= next_status) {
-      PublishStatus();
-      next_status += std::chrono::duration_cast<Clock::duration>(status_period);
-    }
-  }
 }
 
 }  // namespace ccm::agent

@@ -1,70 +1,110 @@
-// The agent's communication module (CCM-SLAM section 4.4): publishes new keyframes
-// (RELIABLE new-data profile) and status heartbeats, receives server messages, runs the
-// optimistic ack/resend scheme and keeps every unacknowledged keyframe until the server
-// has it. Owns one thread (started by Start(), joined by Stop()/destructor); Send() and
-// Stats() may be called from any thread.
+// The agent's communication module (CCM-SLAM 4.5) on the real VO: every publish period it
+// takes the VO's changes (AgentVo::TakeChanges), packs them (ChangePacker: new keyframes and
+// points in full on the RELIABLE topics, pose/position updates on the BEST_EFFORT ones, all
+// relative), and writes at most max_bytes_per_cycle, so a backlog after an outage leaves in
+// several cycles instead of one burst. Server messages bring acknowledgements (AckTracker:
+// KF i acked but not i-1 -> i-1 again in full; unacknowledged for ack_timeout -> again) and
+// the server's k covisible keyframes, which go to the VO (map sharing).
+// Owns one thread (Start/Stop); the VO and the AckTracker are the caller's and outlive it.
+// Stats() and SetTrackingState() from any thread.
 #pragma once
 
 #include <atomic>
-#include <map>
+#include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
+#include <set>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "agent_runtime/ack_tracker.h"
 #include "agent_runtime/agent_config.h"
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
+#include "runtime_common/msg_conversion.h"
 #include "runtime_common/typed_endpoints.h"
+#include "slam_core/vo/agent_vo.h"
+#include "slam_core/vo/change_packer.h"
 
 namespace ccm::agent {
 
 struct AgentCommStats {
-  std::uint64_t kfs_sent = 0;        // first transmissions
+  std::uint64_t kfs_sent = 0;          ///< first transmissions
   std::uint64_t kfs_resent = 0;
   std::uint64_t kfs_acked = 0;
   std::uint64_t kfs_unacked = 0;
+  std::uint64_t mps_sent = 0;
+  std::uint64_t kf_updates_sent = 0, mp_updates_sent = 0;
   std::uint64_t write_failures = 0;
   std::uint64_t server_msgs = 0;
-  std::uint64_t kfs_lost = 0;         // dropped unacknowledged because the buffer was full
+  std::uint64_t server_msgs_rejected = 0;
+  std::uint64_t server_keyframes_received = 0;
+  std::uint64_t backlog_bytes = 0;     ///< packed but not written yet (rate limit)
+  double pack_ms_max = 0.0;            ///< longest TakeChanges + Pack (the VO map's exposure)
+  double pack_ms_total = 0.0;
+  std::uint64_t packs = 0;
 };
 
 class AgentComm {
  public:
-  static std::unique_ptr<AgentComm> Create(const AgentConfig& config, rt::SessionOptions session_options,
-                                           std::string* error);
+  static std::unique_ptr<AgentComm> Create(const AgentConfig& config, rt::SessionOptions session_options, AgentVo* vo,
+                                           AckTracker* acks, std::string* error);
   ~AgentComm();
 
   void Start();
+  /// Stops the thread after one last publish cycle.
   void Stop();
-  /// Queues a new keyframe for sending (blocks briefly if the comm thread is behind).
-  bool Send(msg::KeyframeFull keyframe);
   AgentCommStats Stats() const;
-  bool AllAcked() const;
+  /// The tracking thread reports its state for the status heartbeat (0 initializing,
+  /// 1 tracking, 2 lost).
+  void SetTrackingState(int state) { tracking_state_ = state; }
+  /// True once every keyframe sent was acknowledged and nothing is waiting to be written.
+  bool Drained() const;
+  /// Waits until Drained() or the timeout; returns Drained().
+  bool WaitDrained(std::chrono::milliseconds timeout);
   std::vector<rt::TopicCountersSnapshot> Traffic() const { return session_->TrafficSnapshot(); }
   int matched_servers() const { return keyframe_writer_->matched(); }
 
  private:
-  AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session);
+  AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session, AgentVo* vo, AckTracker* acks);
   void Run();
-  void Transmit(const msg::KeyframeFull& kf, bool resend);
+  void PackChanges();
+  void WriteBacklog();
   void HandleServerMessage(const msg::ServerToAgent& message);
+  void Resend(const std::vector<KeyframeId>& ids);
   void PublishStatus();
 
   AgentConfig config_;
   std::unique_ptr<rt::DdsSession> session_;  // destroyed last (declared first)
+  AgentVo* vo_;
+  AckTracker* acks_;
   std::unique_ptr<rt::TypedWriter<msg::KeyframeFullPubSubType>> keyframe_writer_;
+  std::unique_ptr<rt::TypedWriter<msg::MapPointFullPubSubType>> point_writer_;
+  std::unique_ptr<rt::TypedWriter<msg::KeyframeUpdatePubSubType>> kf_update_writer_;
+  std::unique_ptr<rt::TypedWriter<msg::MapPointUpdatePubSubType>> mp_update_writer_;
   std::unique_ptr<rt::TypedWriter<msg::AgentStatusPubSubType>> status_writer_;
   std::unique_ptr<rt::TypedReader<msg::ServerToAgentPubSubType>> server_reader_;
-  rt::BoundedQueue<msg::KeyframeFull> outbox_{64, rt::OverflowPolicy::kBlock};
 
-  // Comm-thread state (only Run() touches these, Stats() reads under stats_mutex_).
-  AckTracker acks_;
-  std::map<KeyframeId, msg::KeyframeFull> unacked_;  // bounded by N + B
-  KeyframeId newest_;
-  mutable std::mutex stats_mutex_;
+  // Comm-thread state.
+  ChangePacker packer_;
+  conv::CameraCache cameras_;
+  KeyframeId reference_kf_;
+  MapId segment_;
+  /// Packed messages waiting for the rate limit, oldest first (new data before updates of
+  /// the same cycle).
+  std::deque<msg::KeyframeFull> kf_backlog_;
+  std::deque<msg::MapPointFull> mp_backlog_;
+  std::vector<msg::KeyframeUpdate> kf_updates_;
+  std::vector<msg::MapPointUpdate> mp_updates_;
+  std::vector<std::string> rejection_kinds_logged_;
+  std::set<uint64_t> resend_ids_;  ///< packed again for a resend, not written yet
+
+  mutable std::mutex stats_mutex_;  // leaf
+  std::condition_variable stats_cv_;  // notified after every cycle (WaitDrained)
   AgentCommStats stats_;
-
+  std::atomic<int> tracking_state_{0};
   std::atomic<bool> running_{false};
   std::thread thread_;
 };

@@ -7,8 +7,8 @@ namespace ccm::agent {
 std::string AgentConfig::Validate() const {
   if (agent_id < 1 || agent_id > 65535) return "agent_id must be in 1..65535";
   if (domain_id < 0 || domain_id > 232) return "domain_id must be in 0..232";
-  if (!(keyframe_rate_hz > 0.0 && keyframe_rate_hz <= 100.0)) return "keyframe_rate_hz must be in (0, 100]";
-  if (features_per_keyframe < 1 || features_per_keyframe > 4000) return "features_per_keyframe must be in 1..4000";
+  if (!(publish_rate_hz > 0.0 && publish_rate_hz <= 50.0)) return "publish_rate_hz must be in (0, 50]";
+  if (max_bytes_per_cycle < 1000) return "max_bytes_per_cycle must be >= 1000";
   if (!(status_rate_hz > 0.0 && status_rate_hz <= 50.0)) return "status_rate_hz must be in (0, 50]";
   if (!(resend_holdoff_s >= 0.0)) return "resend_holdoff_s must be >= 0";
   if (!(ack_timeout_s > 0.0)) return "ack_timeout_s must be > 0";
@@ -48,8 +48,9 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("domain_id", &config->domain_id);
   r.Get("qos_file", &config->qos_file);
   r.Get("log_level", &config->log_level);
-  r.Get("keyframe_rate_hz", &config->keyframe_rate_hz);
-  r.Get("features_per_keyframe", &config->features_per_keyframe);
+  r.Get("publish_rate_hz", &config->publish_rate_hz);
+  r.Get("max_bytes_per_cycle", &config->max_bytes_per_cycle);
+  r.Get("map_sharing", &config->map_sharing);
   r.Get("status_rate_hz", &config->status_rate_hz);
   r.Get("resend_holdoff_s", &config->resend_holdoff_s);
   r.Get("ack_timeout_s", &config->ack_timeout_s);

@@ -13,8 +13,9 @@ struct AgentConfig {
   int domain_id = 0;                   // DDS domain, 0..232
   std::string qos_file;                // empty: $FASTRTPS_DEFAULT_PROFILES_FILE or qos_profiles/default.xml
   std::string log_level = "info";
-  double keyframe_rate_hz = 2.0;       // link demo: synthetic keyframes per second
-  int features_per_keyframe = 1000;    // link demo: keypoints per synthetic keyframe
+  double publish_rate_hz = 4.0;        // agent -> server messages per second (CCM-SLAM: 2-5 Hz)
+  int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)
+  bool map_sharing = true;             // integrate the keyframes the server sends back
   double status_rate_hz = 1.0;         // AgentStatus heartbeat rate
   double resend_holdoff_s = 1.0;       // no second resend of a KF within this time
   double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long

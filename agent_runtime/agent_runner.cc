@@ -1,4 +1,4 @@
-#include "agent_runtime/standalone_runner.h"
+#include "agent_runtime/agent_runner.h"
 
 #include <spdlog/spdlog.h>
 
@@ -14,6 +14,7 @@
 #include "slam_core/io/dataset.h"
 #include "slam_core/io/video_source.h"
 #include "slam_core/io/trajectory_io.h"
+#include "agent_runtime/agent_comm.h"
 #include "slam_core/vo/agent_vo.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
@@ -23,7 +24,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-std::unique_ptr<FrameSource> OpenSource(const StandaloneOptions& o, std::string* error) {
+std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error) {
   if (!o.sim_scenario.empty()) {
     const auto scenario = sim::LoadScenario(o.sim_scenario, error);
     if (!scenario) return nullptr;
@@ -92,7 +93,7 @@ class Pacer {
 
 }  // namespace
 
-std::string StandaloneOptions::Validate() const {
+std::string RunOptions::Validate() const {
   if (dataset.empty() + sim_scenario.empty() + video.empty() != 2) {
     return "give exactly one of --dataset DIR, --sim SCENARIO or --video DEVICE|FILE";
   }
@@ -106,10 +107,12 @@ std::string StandaloneOptions::Validate() const {
     }
   }
   if (agent_id < 1 || agent_id > 65535) return "agent id must be in 1..65535";
+  if (!(drain_s >= 0.0)) return "--drain must be >= 0";
   return vo.Validate();
 }
 
-int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
+int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::SessionOptions* session,
+             const volatile bool* stop) {
   if (const std::string problem = o.Validate(); !problem.empty()) {
     std::cerr << "error: " << problem << "\n";
     return 2;
@@ -125,12 +128,25 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
     std::cerr << "error: invalid camera calibration: " << ValidateIntrinsics(source->intrinsics()) << "\n";
     return 2;
   }
-  // No server: by default every keyframe may leave the local map once older than N;
-  // --no-acks keeps them buffered as for an unreachable server (up to N+B, then lost).
+  // Connected: the server's acknowledgements decide when keyframes may leave the local map.
+  // Standalone: every keyframe may leave once older than N; --no-acks keeps them buffered as
+  // for an unreachable server (up to N+B, then lost).
   AckAll ack_all;
   AckNone ack_none;
-  const AckSource& acks = o.no_acks ? static_cast<const AckSource&>(ack_none) : ack_all;
+  AckTracker tracker(std::chrono::milliseconds(comm_config ? static_cast<int>(comm_config->resend_holdoff_s * 1000) : 1000));
+  const AckSource& acks = comm_config ? static_cast<const AckSource&>(tracker)
+                          : o.no_acks ? static_cast<const AckSource&>(ack_none)
+                                      : static_cast<const AckSource&>(ack_all);
   AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false);
+  std::unique_ptr<AgentComm> comm;
+  if (comm_config) {
+    comm = AgentComm::Create(*comm_config, *session, &vo, &tracker, &error);
+    if (!comm) {
+      std::cerr << "error: " << error << "\n";
+      return 1;
+    }
+    comm->Start();
+  }
   std::atomic<bool> mapping_run{true};
   std::thread mapping([&] {
     while (mapping_run) vo.RunMappingOnce(std::chrono::milliseconds(100));
@@ -141,14 +157,16 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
   int64_t frames = 0, tracked = 0;
   TrackingResult last;
   std::vector<KeyframePose> ground_truth;
-  spdlog::info("standalone VO on {} ({} frames, {}x{} {})", !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset,
-               source->size(), camera->width(), camera->height(), CameraTypeName(camera->type()));
+  spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
+               !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
+               camera->width(), camera->height(), CameraTypeName(camera->type()));
   while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
     auto frame = source->Next();
     if (!frame) break;
     pacer.Wait(frame->stamp_ns);
     if (frame->world_from_cam_gt) ground_truth.push_back({KeyframeId(), MapId(), frame->stamp_ns, *frame->world_from_cam_gt});
     last = vo.TrackFrame(*frame);
+    if (comm) comm->SetTrackingState(static_cast<int>(last.state));
     // Offline at full speed: let mapping finish each keyframe, as it would keep up in real
     // time; otherwise tracking races ahead on a map that lags behind (seen on KITTI).
     if (o.rate == "max" && last.new_keyframe) vo.WaitUntilMappingIdle();
@@ -160,16 +178,29 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
     if (Clock::now() - last_progress > std::chrono::duration<double>(o.progress_period_s)) {
       const double el = std::chrono::duration<double>(Clock::now() - start).count();
       const auto m = vo.map();
-      spdlog::info("frames {}/{} ({:.1f} fps) state {} tracked {:.1f}% KFs in map {} points {}", frames, source->size(),
-                   frames / el, TrackingStateName(last.state), 100.0 * tracked / frames, m ? m->num_keyframes() : 0,
-                   m ? m->num_map_points() : 0);
+      std::string link;
+      if (comm) {
+        const AgentCommStats c = comm->Stats();
+        link = fmt::format(" | KFs sent {} acked {} resent {} unacked {} | server msgs {} (+{} KFs)", c.kfs_sent,
+                           c.kfs_acked, c.kfs_resent, c.kfs_unacked, c.server_msgs, c.server_keyframes_received);
+      }
+      spdlog::info("frames {}/{} ({:.1f} fps) state {} tracked {:.1f}% KFs in map {}{}", frames, source->size(),
+                   frames / el, TrackingStateName(last.state), 100.0 * tracked / frames, m ? m->num_keyframes() : 0, link);
       last_progress = Clock::now();
     }
   }
+  vo.WaitUntilMappingIdle();
   mapping_run = false;
   vo.Stop();
   mapping.join();
   vo.DrainMapping();
+  bool drained = true;
+  if (comm) {
+    // The last keyframes still need the server's acknowledgement (resends included).
+    drained = comm->WaitDrained(std::chrono::milliseconds(static_cast<int64_t>(o.drain_s * 1000)));
+    comm->Stop();
+    if (!drained) spdlog::warn("{} keyframes still unacknowledged after {:.0f} s", comm->Stats().kfs_unacked, o.drain_s);
+  }
   if (!source->error().empty()) {
     std::cerr << "error: " << source->error() << "\n";
     return 1;
@@ -184,7 +215,11 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
     std::cerr << "error: " << error << "\n";
     return 1;
   }
-  if (!o.keyframes_out.empty() && !WriteTum(o.keyframes_out, vo.KeyframeTrajectory(), &error)) {
+  std::vector<KeyframePose> own_keyframes;
+  for (const KeyframePose& p : vo.KeyframeTrajectory()) {
+    if (p.id.agent() == o.agent_id) own_keyframes.push_back(p);  // not the server's shared ones
+  }
+  if (!o.keyframes_out.empty() && !WriteTum(o.keyframes_out, own_keyframes, &error)) {
     std::cerr << "error: " << error << "\n";
     return 1;
   }
@@ -194,20 +229,39 @@ int RunStandalone(const StandaloneOptions& o, const volatile bool* stop) {
   spdlog::info("tracking ms/frame: median {:.1f} p95 {:.1f}; local mapping ms/keyframe: median {:.1f} p95 {:.1f}",
                Percentile(s.tracking_ms, 0.5), Percentile(s.tracking_ms, 0.95), Percentile(s.mapping_ms, 0.5),
                Percentile(s.mapping_ms, 0.95));
-  const nlohmann::json summary = {{"frames", frames},
-                                  {"tracked", tracked},
-                                  {"keyframes_created", s.keyframes_created},
-                                  {"keyframes_in_map", s.keyframes_in_map},
-                                  {"map_points_in_map", s.map_points_in_map},
-                                  {"keyframes_lost", s.trim.removed_lost},
-                                  {"segments", s.segments},
-                                  {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
-                                  {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},
-                                  {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},
-                                  {"mapping_ms_p95", Percentile(s.mapping_ms, 0.95)},
-                                  {"wall_s", wall_s}};
+  nlohmann::json summary = {{"agent_id", o.agent_id},
+                            {"frames", frames},
+                            {"tracked", tracked},
+                            {"keyframes_created", s.keyframes_created},
+                            {"keyframes_in_map", s.keyframes_in_map},
+                            {"map_points_in_map", s.map_points_in_map},
+                            {"keyframes_lost", s.trim.removed_lost},
+                            {"segments", s.segments},
+                            {"server_keyframes_added", s.server.keyframes_added},
+                            {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
+                            {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},
+                            {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},
+                            {"mapping_ms_p95", Percentile(s.mapping_ms, 0.95)},
+                            {"wall_s", wall_s}};
+  if (comm) {
+    const AgentCommStats c = comm->Stats();
+    summary["link"] = {{"kfs_sent", c.kfs_sent},
+                       {"kfs_resent", c.kfs_resent},
+                       {"kfs_acked", c.kfs_acked},
+                       {"kfs_unacked", c.kfs_unacked},
+                       {"mps_sent", c.mps_sent},
+                       {"kf_updates_sent", c.kf_updates_sent},
+                       {"mp_updates_sent", c.mp_updates_sent},
+                       {"write_failures", c.write_failures},
+                       {"server_msgs", c.server_msgs},
+                       {"server_msgs_rejected", c.server_msgs_rejected},
+                       {"server_keyframes_received", c.server_keyframes_received},
+                       {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
+                       {"pack_ms_max", c.pack_ms_max}};
+    for (const auto& t : comm->Traffic()) summary["traffic"][t.topic + ":" + t.direction] = t.payload_bytes;
+  }
   std::cout << summary.dump() << std::endl;
-  return 0;
+  return drained ? 0 : 3;
 }
 
 }  // namespace ccm::agent

@@ -1,17 +1,21 @@
-// `ccm_agent --standalone`: runs the whole agent VO without DDS on a dataset folder
-// (EuRoC / TUM / KITTI), a live camera / video file or a simulated agent, writes the per-frame and keyframe
-// trajectories (TUM format) and prints progress and timing statistics. Owns the two VO
-// threads: tracking runs on the caller's thread, local mapping on a thread started and
-// joined by Run().
+// Runs the agent: the VO on a dataset folder (EuRoC / TUM / KITTI), a live camera / video
+// file or a simulated agent, either standalone (no DDS, `ccm_agent --standalone`) or
+// connected (the default): then an AgentComm streams the VO's keyframes and points to the
+// server and feeds the server's map back into the VO. Writes the per-frame and keyframe
+// trajectories (TUM), prints progress and a JSON summary. Owns the VO threads: tracking runs
+// on the caller's thread, local mapping on a thread started and joined here; the comm
+// thread is AgentComm's.
 #pragma once
 
 #include <string>
 
+#include "agent_runtime/agent_config.h"
+#include "runtime_common/dds_session.h"
 #include "slam_core/vo/vo_options.h"
 
 namespace ccm::agent {
 
-struct StandaloneOptions {
+struct RunOptions {
   std::string dataset;           ///< dataset folder (empty when sim_scenario is set)
   std::string format = "auto";   ///< auto, euroc, tum, kitti
   std::string calibration;       ///< optional calibration YAML override
@@ -24,15 +28,18 @@ struct StandaloneOptions {
   std::string rate = "max";      ///< "max", "realtime" or a speed factor such as "0.5"
   int64_t max_frames = -1;       ///< stop after this many frames (-1: all)
   int agent_id = 1;
-  bool no_acks = false;           ///< behave as if the server never acknowledges (bounded-map check)
+  bool no_acks = false;          ///< standalone: behave as if the server never acknowledges
   double progress_period_s = 2.0;
+  double drain_s = 30.0;         ///< connected: wait at most this long for the last acks
   VoOptions vo;
 
   std::string Validate() const;
 };
 
-/// Runs to the end of the input (or until *stop becomes true). Returns the process exit
-/// code: 0 on success, 1 on a runtime failure, 2 on bad input; prints a JSON summary.
-int RunStandalone(const StandaloneOptions& options, const volatile bool* stop);
+/// Standalone when `comm` is null. Runs to the end of the input (or until *stop becomes
+/// true). Returns the process exit code: 0 on success, 1 on a runtime failure, 2 on bad
+/// input, 3 if keyframes were still unacknowledged after the drain period.
+int RunAgent(const RunOptions& options, const AgentConfig* comm, const rt::SessionOptions* session,
+             const volatile bool* stop);
 
 }  // namespace ccm::agent

@@ -14,6 +14,7 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <fastdds/dds/topic/ContentFilteredTopic.hpp>
 
 #include <atomic>
 #include <chrono>
@@ -132,13 +133,24 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
     OverflowPolicy policy = OverflowPolicy::kDropOldest;
   };
 
+  /// `filter`: an optional SQL content filter on the topic (e.g. "agent_id = 3"); matching
+  /// writers filter on their side, so other readers' samples never reach this one.
   static std::unique_ptr<TypedReader> Create(DdsSession& session, const std::string& topic_name,
                                              const std::string& profile, QueueOptions queue_options,
-                                             std::string* error) {
+                                             std::string* error, const std::string& filter = "") {
     namespace dds = eprosima::fastdds::dds;
     std::unique_ptr<TypedReader> r(new TypedReader(session, topic_name, queue_options));
-    dds::Topic* topic = session.GetTopic(topic_name, r->type_, error);
-    if (topic == nullptr) return nullptr;
+    dds::Topic* base = session.GetTopic(topic_name, r->type_, error);
+    if (base == nullptr) return nullptr;
+    dds::TopicDescription* topic = base;
+    if (!filter.empty()) {
+      r->filtered_ = session.participant()->create_contentfilteredtopic(topic_name + "/filtered/" + filter, base, filter, {});
+      if (r->filtered_ == nullptr) {
+        *error = "could not create the content filter '" + filter + "' on '" + topic_name + "'";
+        return nullptr;
+      }
+      topic = r->filtered_;
+    }
     dds::DataReaderQos qos;
     if (session.subscriber()->get_datareader_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
       *error = "data reader profile '" + profile + "' not found in '" + session.options().qos_file + "'";
@@ -160,6 +172,7 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
       reader_->set_listener(nullptr);
       session_.subscriber()->delete_datareader(reader_);
     }
+    if (filtered_ != nullptr) session_.participant()->delete_contentfilteredtopic(filtered_);
   }
 
   /// Next received sample, waiting up to `timeout`.
@@ -201,6 +214,7 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
   TopicCounters& counters_;
   BoundedQueue<Msg> queue_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+  eprosima::fastdds::dds::ContentFilteredTopic* filtered_ = nullptr;
   MatchTracker match_;
 };
 

@@ -20,7 +20,8 @@ TEST(AgentConfig, LoadsValidFile) {
       << error;
   EXPECT_EQ(c.agent_id, 7);
   EXPECT_EQ(c.max_keyframes, 10);
-  EXPECT_DOUBLE_EQ(c.keyframe_rate_hz, 2.0);
+  EXPECT_DOUBLE_EQ(c.publish_rate_hz, 4.0);
+  EXPECT_TRUE(c.map_sharing);
 }
 
 TEST(AgentConfig, RejectsUnknownKeyWrongTypeAndBadValue) {
