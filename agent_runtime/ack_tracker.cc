@@ -1,5 +1,7 @@
 #include "agent_runtime/ack_tracker.h"
 
+#include <algorithm>
+
 namespace ccm::agent {
 
 void AckTracker::OnSent(KeyframeId id, Clock::time_point now) {
@@ -40,8 +42,9 @@ std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, C
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<KeyframeId> out;
   for (auto& [id, entry] : entries_) {
-    if (!entry.acked && now - entry.last_sent >= timeout) {
+    if (!entry.acked && now - entry.last_sent >= timeout * (1 << std::min(entry.timeouts, 4))) {
       entry.last_sent = now;
+      ++entry.timeouts;
       ++resent_count_;
       out.push_back(id);
     }

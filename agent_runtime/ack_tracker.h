@@ -31,7 +31,10 @@ class AckTracker final : public AckSource {
   /// Registers acknowledgements; returns the KFs to resend now (ascending).
   std::vector<KeyframeId> OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now);
   /// Unacknowledged KFs sent longer than `timeout` ago (e.g. the newest KFs when the server
-  /// went silent): candidates for a resend; each is reported again only after `timeout`.
+  /// went silent): candidates for a resend. The wait doubles with every timeout resend of
+  /// the same KF (up to 16x): on a slow lossy link the reliable stream is still delivering
+  /// the first copy, and resending on a fixed timer turned the backlog into a resend storm
+  /// (measured at 20% loss, 200 ms delay: 207 resends for 54 keyframes, nothing got through).
   std::vector<KeyframeId> Overdue(std::chrono::milliseconds timeout, Clock::time_point now);
   /// The local map may drop this KF without data loss. Stays true after the tracker
   /// stopped tracking the KF's resend state.
@@ -49,6 +52,7 @@ class AckTracker final : public AckSource {
  private:
   struct Entry {
     Clock::time_point last_sent;
+    int timeouts = 0;  ///< timeout resends so far (backoff)
     bool acked = false;
   };
   mutable std::mutex mutex_;

@@ -35,20 +35,22 @@ std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::Sess
   using namespace rt;
   c->keyframe_writer_ = TypedWriter<msg::KeyframeFullPubSubType>::Create(s, kTopicKeyframes, kProfileNewDataWriter, error);
   if (!c->keyframe_writer_) return nullptr;
-  c->point_writer_ = TypedWriter<msg::MapPointFullPubSubType>::Create(s, kTopicMapPoints, kProfileNewDataWriter, error);
+  c->point_writer_ = TypedWriter<msg::MapPointBatchPubSubType>::Create(s, kTopicMapPoints, kProfileNewDataWriter, error);
   if (!c->point_writer_) return nullptr;
   c->kf_update_writer_ =
       TypedWriter<msg::KeyframeUpdatePubSubType>::Create(s, kTopicKeyframeUpdates, kProfileUpdateWriter, error);
   if (!c->kf_update_writer_) return nullptr;
   c->mp_update_writer_ =
-      TypedWriter<msg::MapPointUpdatePubSubType>::Create(s, kTopicMapPointUpdates, kProfileUpdateWriter, error);
+      TypedWriter<msg::MapPointUpdateBatchPubSubType>::Create(s, kTopicMapPointUpdates, kProfileUpdateWriter, error);
   if (!c->mp_update_writer_) return nullptr;
   c->status_writer_ = TypedWriter<msg::AgentStatusPubSubType>::Create(s, kTopicAgentStatus, kProfileStatusWriter, error);
   if (!c->status_writer_) return nullptr;
-  // Only this agent's server messages: the topic is keyed by agent id and filtered.
+  // Only this agent's server messages: the server writes them in this agent's partition.
+  // (Not a content filter: Fast DDS 2.9 mis-filters fragmented samples, eProsima/Fast-DDS#6017,
+  // and a neighbourhood is ~150 fragments.)
   c->server_reader_ = TypedReader<msg::ServerToAgentPubSubType>::Create(
       s, kTopicServerToAgent, kProfileServerReader, {16, OverflowPolicy::kDropOldest}, error,
-      "agent_id = " + std::to_string(config.agent_id));
+      AgentPartition(config.agent_id));
   if (!c->server_reader_) return nullptr;
   return c;
 }
@@ -83,10 +85,20 @@ bool AgentComm::Drained() const {
 }
 
 bool AgentComm::WaitDrained(std::chrono::milliseconds timeout) {
-  std::unique_lock<std::mutex> lock(stats_mutex_);
-  return stats_cv_.wait_for(lock, timeout, [this] {
-    return (stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0) || !running_;
-  }) && stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0;
+  const auto deadline = Clock::now() + timeout;
+  {
+    std::unique_lock<std::mutex> lock(stats_mutex_);
+    const bool drained = stats_cv_.wait_until(lock, deadline, [this] {
+      return (stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0) || !running_;
+    }) && stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0;
+    if (!drained) return false;
+  }
+  // Every keyframe is acknowledged by the server; the points the server does not ack one by
+  // one: wait until DDS delivered everything written (a process that exits earlier takes
+  // its unacknowledged reliable samples with it).
+  auto left = [&] { return std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()); };
+  return point_writer_->WaitForAcknowledgments(std::max(left(), std::chrono::milliseconds(0))) &&
+         keyframe_writer_->WaitForAcknowledgments(std::max(left(), std::chrono::milliseconds(0)));
 }
 
 void AgentComm::Run() {
@@ -107,7 +119,12 @@ void AgentComm::Run() {
     }
     const auto now = Clock::now();
     if (now >= next_publish || last) {
-      Resend(acks_->Overdue(ack_timeout, now));
+      // A timeout resend only once DDS delivered everything written to a matched server:
+      // while the reliable stream is still repairing, a resend only adds to its backlog. What
+      // is left then was lost above DDS (a dropped batch, a restarted server).
+      if (keyframe_writer_->matched() > 0 && keyframe_writer_->WaitForAcknowledgments(std::chrono::milliseconds(0))) {
+        Resend(acks_->Overdue(ack_timeout, now));
+      }
       PackChanges();
       WriteBacklog();
       next_publish = now + publish_period;
@@ -159,18 +176,39 @@ void AgentComm::WriteBacklog() {
     }
     kf_backlog_.pop_front();
   }
+  // Points in batches (idl MapPointBatch): one sample per cycle instead of one per point.
+  msg::MapPointBatch points;
+  points.protocol_version(msg::kProtocolVersion);
+  points.agent_id(static_cast<std::uint16_t>(config_.agent_id));
+  auto flush_points = [&] {
+    if (points.points().empty()) return;
+    failures += point_writer_->Write(points) ? 0 : 1;
+    points.points().clear();
+  };
   while (!mp_backlog_.empty() && budget >= WireBytes(mp_backlog_.front())) {
     budget -= WireBytes(mp_backlog_.front());
-    failures += point_writer_->Write(mp_backlog_.front()) ? 0 : 1;
+    points.points().push_back(std::move(mp_backlog_.front()));
     mp_backlog_.pop_front();
     ++mps;
+    if (points.points().size() >= msg::kMaxPointsPerBatch) flush_points();
   }
+  flush_points();
   std::unordered_map<uint64_t, const msg::KeyframeUpdate*> latest_kf;
   for (const auto& u : kf_updates_) latest_kf[u.id()] = &u;
   for (const auto& [id, u] : latest_kf) failures += kf_update_writer_->Write(*u) ? 0 : 1;
   std::unordered_map<uint64_t, const msg::MapPointUpdate*> latest_mp;
   for (const auto& u : mp_updates_) latest_mp[u.id()] = &u;
-  for (const auto& [id, u] : latest_mp) failures += mp_update_writer_->Write(*u) ? 0 : 1;
+  msg::MapPointUpdateBatch updates;
+  updates.protocol_version(msg::kProtocolVersion);
+  updates.agent_id(static_cast<std::uint16_t>(config_.agent_id));
+  for (const auto& [id, u] : latest_mp) {
+    updates.updates().push_back(*u);
+    if (updates.updates().size() >= msg::kMaxPointUpdatesPerBatch) {
+      failures += mp_update_writer_->Write(updates) ? 0 : 1;
+      updates.updates().clear();
+    }
+  }
+  if (!updates.updates().empty()) failures += mp_update_writer_->Write(updates) ? 0 : 1;
   kf_updates_.clear();
   mp_updates_.clear();
   size_t backlog = 0;

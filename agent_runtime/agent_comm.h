@@ -81,9 +81,9 @@ class AgentComm {
   AgentVo* vo_;
   AckTracker* acks_;
   std::unique_ptr<rt::TypedWriter<msg::KeyframeFullPubSubType>> keyframe_writer_;
-  std::unique_ptr<rt::TypedWriter<msg::MapPointFullPubSubType>> point_writer_;
+  std::unique_ptr<rt::TypedWriter<msg::MapPointBatchPubSubType>> point_writer_;
   std::unique_ptr<rt::TypedWriter<msg::KeyframeUpdatePubSubType>> kf_update_writer_;
-  std::unique_ptr<rt::TypedWriter<msg::MapPointUpdatePubSubType>> mp_update_writer_;
+  std::unique_ptr<rt::TypedWriter<msg::MapPointUpdateBatchPubSubType>> mp_update_writer_;
   std::unique_ptr<rt::TypedWriter<msg::AgentStatusPubSubType>> status_writer_;
   std::unique_ptr<rt::TypedReader<msg::ServerToAgentPubSubType>> server_reader_;
 

@@ -17,7 +17,7 @@ struct AgentConfig {
   int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)
   bool map_sharing = true;             // integrate the keyframes the server sends back
   double status_rate_hz = 1.0;         // AgentStatus heartbeat rate
-  double resend_holdoff_s = 1.0;       // no second resend of a KF within this time
+  double resend_holdoff_s = 3.0;       // KF i acked, i-1 not: resend i-1 only if sent this long ago (>= the server's ack_repeats / publish_rate_hz: its ack may still come in a repeat)
   double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long
   int max_keyframes = 50;              // N: local map size (CCM-SLAM default)
   int buffer_keyframes = 50;           // B: extra unacknowledged KFs kept (paper: B = N)

@@ -6,6 +6,8 @@
 #include <glog/logging.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <iostream>
 
@@ -100,6 +102,15 @@ int main(int argc, char** argv) {
   }
   session.domain_id = config.domain_id;
   session.qos_file = config.qos_file;
+  // Ids of this process' life: a restarted agent with the same id must not reuse keyframe,
+  // point or segment ids the server already holds (it would take new keyframes for resends).
+  // Seconds since 2024 (segments, 32 bits on the wire) and 100000 ids per second of clock
+  // (keyframes and points; 48-bit counters) keep every life's ids above the previous one's.
+  const auto now_s = std::chrono::duration_cast<std::chrono::seconds>(
+                         std::chrono::system_clock::now().time_since_epoch()).count();
+  const uint64_t life = static_cast<uint64_t>(std::max<int64_t>(1, now_s - 1704067200));
+  run.vo.first_segment_counter = life;
+  run.vo.first_id_counter = life * 100000;
   if (session.fault.enabled()) spdlog::warn("fault injection active: {}", session.fault.ToString());
   return agent::RunAgent(run, &config, &session, &g_stop_flag);
 }

@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
-# One command on a fresh Debian 12 machine: install dependencies, build, run the demo on the
-# built-in synthetic multi-agent scenario "hall3" (3 drones in an indoor hall).
-#  1. Link: one ccm_server and three ccm_agent processes exchange full keyframes through the
-#     real protocol (RELIABLE new data, BEST_EFFORT acks, resends) over the wifi.xml QoS
-#     profile while every process loses 20% of its incoming datagrams and delays the rest
-#     by 100 ms.
-#  2. Onboard VO: each of the three agents flies its hall3 trajectory (frames rendered in
-#     process) with the monocular VO, standalone, and ccm_eval scores the trajectories
-#     against the simulator's ground truth (table + plot).
-# The server-side collaborative mapping (place recognition, fusion) is not wired in yet.
+# One command on a fresh Debian 12 machine: install dependencies, build, run the real system
+# on the built-in synthetic scenario "hall3" (3 drones in an indoor hall):
+# one ccm_server and three ccm_agent processes (real monocular VO on frames the simulator
+# renders in process) talk over DDS with the shipped wifi.xml QoS profiles, while every
+# process loses DEMO_DROP of its incoming datagrams and delays the rest by DEMO_DELAY_MS.
+# The agents stream keyframes and points, the server fuses the maps, closes loops and shares
+# the map back. Progress every few seconds; at the end a summary (per-agent and
+# collaborative ATE against the simulator's ground truth, fusion and loop events, traffic
+# per agent both ways) and the folder demo-out/: summary.json, agent<i>_keyframes.tum (in
+# the fused map's frame), map.ply, map_top.png, the processes' logs.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build}"
@@ -16,51 +16,49 @@ BUILD_DIR="${BUILD_DIR:-$ROOT/build}"
 BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh" --target ccm_agent ccm_server ccm_eval_cli
 BIN="$BUILD_DIR"
 QOS="$ROOT/qos_profiles/wifi.xml"
-DROP="${DEMO_DROP:-0.2}"
-DELAY="${DEMO_DELAY_MS:-100}"
-KFS="${DEMO_KEYFRAMES:-40}"
-OUT="$(mktemp -d)"
+DROP="${DEMO_DROP:-0.1}"
+DELAY="${DEMO_DELAY_MS:-50}"
+FRAMES="${DEMO_FRAMES:-1601}"   # all of hall3: 80 s of flight per agent
+RATE="${DEMO_RATE:-0.5}"        # half real time: three VOs and the server share 2 cores
+OUT="${DEMO_OUT:-$PWD/demo-out}"
+DOMAIN="${DEMO_DOMAIN:-42}"
+rm -rf "$OUT"
+mkdir -p "$OUT"
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
-common=(--qos "$QOS" --domain 42 --drop "$DROP" --delay-ms "$DELAY")
-echo "[demo] 1 server + 3 agents, ${KFS} keyframes each (~55 kB), drop=${DROP}, delay=${DELAY} ms, logs in $OUT"
-"$BIN/server_runtime/ccm_server" "${common[@]}" --idle-exit 8 --duration 180 >"$OUT/server.log" 2>&1 &
+common=(--qos "$QOS" --domain "$DOMAIN" --drop "$DROP" --delay-ms "$DELAY")
+echo "[demo] 1 server + 3 agents on hall3 (${FRAMES} frames each at ${RATE}x real time), drop=${DROP}, delay=${DELAY} ms"
+echo "[demo] output and logs: $OUT"
+"$BIN/server_runtime/ccm_server" "${common[@]}" --idle-exit 5 --duration 900 --progress 5 --out "$OUT/server" \
+  >"$OUT/server.log" 2>&1 &
 server_pid=$!
 pids=()
 for id in 1 2 3; do
-  "$BIN/agent_runtime/ccm_agent" "${common[@]}" --agent-id "$id" --link-demo "$KFS" --drain 60 \
+  "$BIN/agent_runtime/ccm_agent" "${common[@]}" --agent-id "$id" --sim hall3 --sim-agent $((id - 1)) \
+    --max-frames "$FRAMES" --rate "$RATE" --drain 60 --ground-truth "$OUT/agent${id}_ground_truth.tum" \
     >"$OUT/agent$id.log" 2>&1 &
   pids+=($!)
 done
+# Live progress: the newest progress line of every process.
+while kill -0 "${pids[@]}" 2>/dev/null; do
+  sleep 10
+  for id in 1 2 3; do
+    line=$(grep -a "frames " "$OUT/agent$id.log" | tail -1 | sed 's/^\[[^]]*\] \[info\] //') || true
+    [ -n "$line" ] && echo "[demo] agent $id: $line"
+  done
+  line=$(grep -a " s: maps" "$OUT/server.log" | tail -1 | sed 's/^\[[^]]*\] \[info\] //') || true
+  [ -n "$line" ] && echo "[demo] server: $line"
+done
 status=0
-for id in 1 2 3; do
-  wait "${pids[$((id - 1))]}" || status=1
-  echo "[demo] agent $id: $(grep '^{' "$OUT/agent$id.log" | tail -1)"
-done
-wait "$server_pid" || status=1
-echo "[demo] server: $(grep '^{' "$OUT/server.log" | tail -1)"
-if [ $status -eq 0 ]; then echo "[demo] OK: every keyframe of every agent reached the server and was acknowledged"; fi
-
-FRAMES="${DEMO_FRAMES:-600}"
-echo "[demo] onboard VO: 3 hall3 agents, ${FRAMES} frames each (752x480, 20 Hz), standalone"
-vo_pids=()
-for a in 0 1 2; do
-  "$BIN/agent_runtime/ccm_agent" --standalone --sim hall3 --sim-agent "$a" --agent-id $((a + 1)) \
-    --max-frames "$FRAMES" --trajectory "$OUT/vo_agent$a.txt" --keyframes "$OUT/vo_agent${a}_kf.txt" \
-    --ground-truth "$OUT/gt_agent$a.txt" >"$OUT/vo_agent$a.log" 2>&1 &
-  vo_pids+=($!)
-done
-for a in 0 1 2; do
-  wait "${vo_pids[$a]}" || status=1
-  echo "[demo] agent $a VO: $(grep 'done:' "$OUT/vo_agent$a.log" | sed 's/.*done: //')"
-done
-# Each agent's VO has its own frame and scale: read the per-agent rows (the JOINT row needs a
-# common map frame, which server-side fusion will provide); one plot per agent.
-"$BIN/tools/eval/ccm_eval" --gt "$OUT/gt_agent0.txt" --est "$OUT/vo_agent0.txt" \
-  --gt "$OUT/gt_agent1.txt" --est "$OUT/vo_agent1.txt" --gt "$OUT/gt_agent2.txt" --est "$OUT/vo_agent2.txt" \
-  --name agent0 --name agent1 --name agent2 --json "$OUT/vo_eval.json" || status=1
-for a in 0 1 2; do
-  "$BIN/tools/eval/ccm_eval" --gt "$OUT/gt_agent$a.txt" --est "$OUT/vo_agent$a.txt" --name "agent$a" \
-    --plot "$OUT/vo_agent$a.png" >/dev/null || status=1
-done
-echo "[demo] trajectories, logs, vo_eval.json and plots vo_agent{0,1,2}.png are in $OUT"
+for id in 1 2 3; do wait "${pids[$((id - 1))]}" || { echo "[demo] agent $id failed, see $OUT/agent$id.log"; status=1; }; done
+wait "$server_pid" || { echo "[demo] server failed, see $OUT/server.log"; status=1; }
+[ -f "$OUT/server/server.json" ] || { echo "[demo] the server wrote no outputs"; exit 1; }
+cp "$OUT"/server/agent*_keyframes.tum "$OUT/server/map.ply" "$OUT/server/map_top.png" "$OUT/"
+"$BIN/tools/eval/ccm_eval" \
+  --gt "$OUT/agent1_ground_truth.tum" --est "$OUT/agent1_keyframes.tum" \
+  --gt "$OUT/agent2_ground_truth.tum" --est "$OUT/agent2_keyframes.tum" \
+  --gt "$OUT/agent3_ground_truth.tum" --est "$OUT/agent3_keyframes.tum" \
+  --name agent1 --name agent2 --name agent3 --json "$OUT/eval.json" --plot "$OUT/ate_top.png" >"$OUT/eval.txt" 2>&1 ||
+  { echo "[demo] evaluation failed: $(tail -3 "$OUT/eval.txt")"; status=1; }
+python3 "$ROOT/deploy/demo_summary.py" "$OUT" 3 || status=1
+echo "[demo] summary.json, map.ply, map_top.png, ate_top.png and trajectories are in $OUT"
 exit $status

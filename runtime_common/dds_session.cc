@@ -120,6 +120,30 @@ DdsSession::~DdsSession() {
   dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
 }
 
+dds::Publisher* DdsSession::publisher(const std::string& partition) {
+  if (partition.empty()) return publisher_;
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto& p = partition_publishers_[partition];
+  if (p == nullptr) {
+    dds::PublisherQos qos = dds::PUBLISHER_QOS_DEFAULT;
+    qos.partition().push_back(partition.c_str());
+    p = participant_->create_publisher(qos);
+  }
+  return p;
+}
+
+dds::Subscriber* DdsSession::subscriber(const std::string& partition) {
+  if (partition.empty()) return subscriber_;
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto& s = partition_subscribers_[partition];
+  if (s == nullptr) {
+    dds::SubscriberQos qos = dds::SUBSCRIBER_QOS_DEFAULT;
+    qos.partition().push_back(partition.c_str());
+    s = participant_->create_subscriber(qos);
+  }
+  return s;
+}
+
 dds::Topic* DdsSession::GetTopic(const std::string& name, dds::TypeSupport type, std::string* error) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (auto it = topics_.find(name); it != topics_.end()) return it->second;

@@ -56,6 +56,11 @@ class DdsSession {
   eprosima::fastdds::dds::DomainParticipant* participant() { return participant_; }
   eprosima::fastdds::dds::Publisher* publisher() { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() { return subscriber_; }
+  /// A publisher / subscriber in one DDS partition, created on first use (nullptr if Fast
+  /// DDS refuses). Endpoints only match within a partition: the server's per-agent writers
+  /// reach exactly one agent's reader ("agent_<id>").
+  eprosima::fastdds::dds::Publisher* publisher(const std::string& partition);
+  eprosima::fastdds::dds::Subscriber* subscriber(const std::string& partition);
 
   /// Counters for one topic and direction ("out"/"in"), created on first use.
   TopicCounters& Counters(const std::string& topic, const std::string& direction);
@@ -72,8 +77,10 @@ class DdsSession {
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
-  mutable std::mutex mutex_;  // guards topics_ and counters_ (the maps, not the counters)
+  mutable std::mutex mutex_;  // guards topics_, counters_ (the maps, not the counters) and the partition maps
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+  std::map<std::string, eprosima::fastdds::dds::Publisher*> partition_publishers_;
+  std::map<std::string, eprosima::fastdds::dds::Subscriber*> partition_subscribers_;
   std::map<std::pair<std::string, std::string>, std::unique_ptr<TopicCounters>> counters_;
 };
 

@@ -2,16 +2,21 @@
 // has the table). Profile names are defaults: runtimes can remap them from their config.
 #pragma once
 
+#include <string>
+
 namespace ccm::rt {
 
 // Agent -> server.
 inline constexpr const char* kTopicKeyframes = "ccm/keyframes";              // KeyframeFull, new data
-inline constexpr const char* kTopicMapPoints = "ccm/map_points";             // MapPointFull, new data
+inline constexpr const char* kTopicMapPoints = "ccm/map_points";             // MapPointBatch, new data
 inline constexpr const char* kTopicKeyframeUpdates = "ccm/keyframe_updates"; // KeyframeUpdate
-inline constexpr const char* kTopicMapPointUpdates = "ccm/map_point_updates";// MapPointUpdate
+inline constexpr const char* kTopicMapPointUpdates = "ccm/map_point_updates";// MapPointUpdateBatch
 inline constexpr const char* kTopicAgentStatus = "ccm/agent_status";         // AgentStatus
 // Server -> agents.
 inline constexpr const char* kTopicServerToAgent = "ccm/server_to_agent";    // ServerToAgent
+/// The DDS partition of one agent's ServerToAgent stream: the server writes each agent's
+/// messages with a writer in that partition, so they reach only that agent.
+inline std::string AgentPartition(int agent_id) { return "agent_" + std::to_string(agent_id); }
 
 inline constexpr const char* kProfileParticipant = "ccm_participant";
 inline constexpr const char* kProfileNewDataWriter = "ccm_new_data_writer";

@@ -14,7 +14,6 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
-#include <fastdds/dds/topic/ContentFilteredTopic.hpp>
 
 #include <atomic>
 #include <chrono>
@@ -58,18 +57,27 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
  public:
   using Msg = typename PubSubT::type;
 
+  /// `partition`: write in this DDS partition only (see DdsSession::publisher); its traffic
+  /// is counted as "<topic>@<partition>".
   static std::unique_ptr<TypedWriter> Create(DdsSession& session, const std::string& topic_name,
-                                             const std::string& profile, std::string* error) {
+                                             const std::string& profile, std::string* error,
+                                             const std::string& partition = "") {
     namespace dds = eprosima::fastdds::dds;
-    std::unique_ptr<TypedWriter> w(new TypedWriter(session, topic_name));
+    std::unique_ptr<TypedWriter> w(
+        new TypedWriter(session, partition.empty() ? topic_name : topic_name + "@" + partition));
+    w->publisher_ = session.publisher(partition);
+    if (w->publisher_ == nullptr) {
+      *error = "could not create a publisher in partition '" + partition + "'";
+      return nullptr;
+    }
     dds::Topic* topic = session.GetTopic(topic_name, w->type_, error);
     if (topic == nullptr) return nullptr;
     dds::DataWriterQos qos;
-    if (session.publisher()->get_datawriter_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
+    if (w->publisher_->get_datawriter_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
       *error = "data writer profile '" + profile + "' not found in '" + session.options().qos_file + "'";
       return nullptr;
     }
-    w->writer_ = session.publisher()->create_datawriter(topic, qos, w.get(), dds::StatusMask::publication_matched());
+    w->writer_ = w->publisher_->create_datawriter(topic, qos, w.get(), dds::StatusMask::publication_matched());
     if (w->writer_ == nullptr) {
       *error = "could not create a data writer on '" + topic_name + "' with profile '" + profile + "'";
       return nullptr;
@@ -78,7 +86,7 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
   }
 
   ~TypedWriter() override {
-    if (writer_ != nullptr) session_.publisher()->delete_datawriter(writer_);
+    if (writer_ != nullptr) publisher_->delete_datawriter(writer_);
   }
 
   /// Publishes one sample. False when Fast DDS refused it (history full past
@@ -119,6 +127,7 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
   DdsSession& session_;
   eprosima::fastdds::dds::TypeSupport type_;
   TopicCounters& counters_;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   MatchTracker match_;
 };
@@ -133,32 +142,27 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
     OverflowPolicy policy = OverflowPolicy::kDropOldest;
   };
 
-  /// `filter`: an optional SQL content filter on the topic (e.g. "agent_id = 3"); matching
-  /// writers filter on their side, so other readers' samples never reach this one.
+  /// `partition`: read only writers in this DDS partition (see DdsSession::subscriber).
   static std::unique_ptr<TypedReader> Create(DdsSession& session, const std::string& topic_name,
                                              const std::string& profile, QueueOptions queue_options,
-                                             std::string* error, const std::string& filter = "") {
+                                             std::string* error, const std::string& partition = "") {
     namespace dds = eprosima::fastdds::dds;
     std::unique_ptr<TypedReader> r(new TypedReader(session, topic_name, queue_options));
-    dds::Topic* base = session.GetTopic(topic_name, r->type_, error);
-    if (base == nullptr) return nullptr;
-    dds::TopicDescription* topic = base;
-    if (!filter.empty()) {
-      r->filtered_ = session.participant()->create_contentfilteredtopic(topic_name + "/filtered/" + filter, base, filter, {});
-      if (r->filtered_ == nullptr) {
-        *error = "could not create the content filter '" + filter + "' on '" + topic_name + "'";
-        return nullptr;
-      }
-      topic = r->filtered_;
+    dds::Topic* topic = session.GetTopic(topic_name, r->type_, error);
+    if (topic == nullptr) return nullptr;
+    r->subscriber_ = session.subscriber(partition);
+    if (r->subscriber_ == nullptr) {
+      *error = "could not create a subscriber in partition '" + partition + "'";
+      return nullptr;
     }
     dds::DataReaderQos qos;
-    if (session.subscriber()->get_datareader_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
+    if (r->subscriber_->get_datareader_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
       *error = "data reader profile '" + profile + "' not found in '" + session.options().qos_file + "'";
       return nullptr;
     }
     const dds::StatusMask mask = dds::StatusMask::data_available() << dds::StatusMask::subscription_matched()
                                  << dds::StatusMask::sample_lost();
-    r->reader_ = session.subscriber()->create_datareader(topic, qos, r.get(), mask);
+    r->reader_ = r->subscriber_->create_datareader(topic, qos, r.get(), mask);
     if (r->reader_ == nullptr) {
       *error = "could not create a data reader on '" + topic_name + "' with profile '" + profile + "'";
       return nullptr;
@@ -170,9 +174,8 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
     queue_.Close();  // unblocks a listener waiting on a full kBlock queue
     if (reader_ != nullptr) {
       reader_->set_listener(nullptr);
-      session_.subscriber()->delete_datareader(reader_);
+      subscriber_->delete_datareader(reader_);
     }
-    if (filtered_ != nullptr) session_.participant()->delete_contentfilteredtopic(filtered_);
   }
 
   /// Next received sample, waiting up to `timeout`.
@@ -214,7 +217,7 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
   TopicCounters& counters_;
   BoundedQueue<Msg> queue_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
-  eprosima::fastdds::dds::ContentFilteredTopic* filtered_ = nullptr;
+  eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   MatchTracker match_;
 };
 

@@ -1,8 +1,10 @@
-// ccm_server: the ground-station daemon. This version runs the communication module: it
-// receives keyframes and status from any number of agents and acknowledges them; the map
-// stack, place recognition and optimization plug in behind it.
+// ccm_server: the ground-station daemon. Receives the agents' keyframes and points over DDS
+// (server_comm.h), runs the collaborative SLAM back-end on them (slam_core/server: map stack,
+// place recognition, fusion, loop closure, global BA; stage threads in backend_runner.h),
+// acknowledges what it processed and shares the map back. Optionally starts from a saved
+// map stack and saves it on exit; --out writes trajectories, the map and summaries.
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+#include <glog/logging.h>
 #include <spdlog/spdlog.h>
 
 #include <csignal>
@@ -10,98 +12,173 @@
 #include <thread>
 
 #include "runtime_common/logging.h"
+#include "server_runtime/backend_runner.h"
 #include "server_runtime/server_comm.h"
+#include "server_runtime/server_outputs.h"
+#include "slam_core/place_recognition/vocabulary_io.h"
+
+#ifndef CCM_DEFAULT_VOCABULARY
+#define CCM_DEFAULT_VOCABULARY ""
+#endif
 
 namespace {
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
+
+int Fail(const std::string& message, int code = 2) {
+  std::cerr << "ccm_server: error: " << message << "\n";
+  return code;
+}
+
+void LogProgress(const ccm::ServerBackend& backend, const ccm::server::ServerCommStats& comm) {
+  const auto maps = backend.Maps();
+  const auto stats = backend.stats();
+  const auto queues = backend.queue_depths();
+  std::string agents;
+  for (const auto& [id, l] : comm.agents) {
+    const auto c = stats.agents.count(id) ? stats.agents.at(id) : ccm::AgentCounters{};
+    const size_t queued = queues.agent_batches.count(id) ? queues.agent_batches.at(id) : 0;
+    agents += fmt::format(" | agent {}{}: KFs {} rx {} reg, queue {}, tracking {}", id, l.alive ? "" : " (gone)",
+                          l.keyframes, c.keyframes_registered, queued, l.tracking_state);
+  }
+  size_t kfs = 0;
+  for (const auto& m : maps) kfs += m.keyframes;
+  spdlog::info("{:.0f} s: maps {} ({} KFs), fusions {}, loops {}, global BAs {}{}", comm.elapsed_s, maps.size(), kfs,
+               stats.fusions, stats.loops, stats.global_ba_applied, agents);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace ccm;
   server::ServerConfig config;
   rt::SessionOptions session;
-  std::string config_path;
-  double duration_s = 0.0, idle_exit_s = 0.0;
+  std::string config_path, out_dir;
+  double duration_s = 0.0, idle_exit_s = 0.0, progress_s = 2.0;
+  bool no_final_ba = false;
   CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
   app.add_option("-c,--config", config_path, "YAML config file (keys: see docs/configuration.md)")
       ->check(CLI::ExistingFile);
   auto* domain_opt = app.add_option("--domain", config.domain_id, "DDS domain id (overrides the config)");
   auto* qos_opt = app.add_option("--qos", config.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
   auto* log_opt = app.add_option("--log-level", config.log_level, "trace, debug, info, warn, error, off");
+  auto* vocab_opt = app.add_option("--vocab", config.vocabulary, "bag-of-words vocabulary (default: the built-in one)");
+  auto* load_opt = app.add_option("--load-map", config.load_map, "start from this saved map stack")
+                       ->check(CLI::ExistingFile);
+  auto* save_opt = app.add_option("--save-map", config.save_map, "save the map stack here on exit");
+  app.add_option("--out", out_dir, "on exit write trajectories (TUM), summary.json, server.json, map.ply, map_top.png");
+  app.add_flag("--no-final-ba", no_final_ba, "skip the global BA of every map on exit");
   app.add_option("--duration", duration_s, "stop after this many seconds (0: until Ctrl-C)");
-  app.add_option("--idle-exit", idle_exit_s, "stop once no keyframe arrived for this long, after the first [s]");
+  app.add_option("--idle-exit", idle_exit_s,
+                 "stop once every agent has left and no data arrived for this long, after the first [s]");
+  app.add_option("--progress", progress_s, "progress line period [s]")->capture_default_str();
   app.add_option("--drop", session.fault.drop_probability, "fault injection: drop probability of received datagrams");
   app.add_option("--delay-ms", session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
   CLI11_PARSE(app, argc, argv);
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_minloglevel = google::GLOG_ERROR;  // Ceres' rejected-step warnings are noise here
+  FLAGS_logtostderr = true;
 
   std::string error;
   if (!config_path.empty()) {
     server::ServerConfig from_file;
-    if (!server::LoadServerConfig(config_path, &from_file, &error)) {
-      std::cerr << "error: " << error << "\n";
-      return 2;
-    }
+    if (!server::LoadServerConfig(config_path, &from_file, &error)) return Fail(error);
     const server::ServerConfig cli = config;
-    config = from_file;
+    config = from_file;  // the command line wins over the file
     if (*domain_opt) config.domain_id = cli.domain_id;
     if (*qos_opt) config.qos_file = cli.qos_file;
     if (*log_opt) config.log_level = cli.log_level;
+    if (*vocab_opt) config.vocabulary = cli.vocabulary;
+    if (*load_opt) config.load_map = cli.load_map;
+    if (*save_opt) config.save_map = cli.save_map;
   }
-  if (const std::string problem = config.Validate(); !problem.empty()) {
-    std::cerr << "error: " << problem << "\n";
-    return 2;
-  }
-  if (!rt::SetupLogging(config.log_level, &error)) {
-    std::cerr << "error: " << error << "\n";
-    return 2;
-  }
+  if (config.vocabulary.empty()) config.vocabulary = CCM_DEFAULT_VOCABULARY;
+  if (const std::string problem = config.Validate(); !problem.empty()) return Fail(problem);
+  if (config.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
+  if (!rt::SetupLogging(config.log_level, &error)) return Fail(error);
   if (session.fault.drop_probability == 0.0 && session.fault.delay_ms == 0.0) {
     auto env = rt::FaultOptions::FromEnvironment(&error);
-    if (!env) { std::cerr << "error: " << error << "\n"; return 2; }
+    if (!env) return Fail(error);
     session.fault = *env;
   }
   session.domain_id = config.domain_id;
   session.qos_file = config.qos_file;
-  auto comm = server::ServerComm::Create(config, session, &error);
-  if (!comm) {
-    std::cerr << "error: " << error << "\n";
-    return 1;
+
+  auto loaded = LoadVocabularyFile(config.vocabulary, &error);
+  if (!loaded) return Fail(error);
+  auto vocabulary = std::make_shared<const Vocabulary>(std::move(*loaded));
+  ServerOptions options;
+  options.max_agents = config.max_agents;
+  options.neighbourhood_k = config.neighbourhood_k;
+  std::unique_ptr<ServerBackend> backend;
+  if (!config.load_map.empty()) {
+    backend = ServerBackend::Load(config.load_map, vocabulary, options, &error);
+    if (!backend) return Fail(error, 1);
+    size_t kfs = 0;
+    for (const auto& m : backend->Maps()) kfs += m.keyframes;
+    spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, backend->Maps().size(), kfs,
+                 backend->agents().size());
+  } else {
+    backend = std::make_unique<ServerBackend>(vocabulary, options);
   }
+  auto runner = std::make_unique<server::BackendRunner>(backend.get());
+  auto comm = server::ServerComm::Create(config, session, backend.get(), &error);
+  if (!comm) return Fail(error, 1);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   if (session.fault.enabled()) spdlog::warn("fault injection active: {}", session.fault.ToString());
-  spdlog::info("server up on domain {}", config.domain_id);
+  spdlog::info("server up on domain {} (vocabulary {} words, max {} agents, map sharing k = {})", config.domain_id,
+               vocabulary->num_words(), config.max_agents, config.map_sharing ? config.neighbourhood_k : 0);
   comm->Start();
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  std::size_t last_total = 0;
-  auto last_change = Clock::now();
+  auto next_progress = start + std::chrono::duration<double>(progress_s);
   while (!g_stop) {
-    std::this_thread::sleep_for(std::chrono::seconds(1));  // reporting cadence of the main thread
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
     const auto stats = comm->Stats();
-    std::size_t total = 0;
-    for (const auto& [id, agent] : stats.agents) {
-      total += agent.keyframes.size() + agent.duplicates;
-      spdlog::info("agent {}: {} keyframes ({} duplicates), {} status msgs", id, agent.keyframes.size(),
-                   agent.duplicates, agent.status_msgs);
+    if (Clock::now() >= next_progress) {
+      LogProgress(*backend, stats);
+      next_progress = Clock::now() + std::chrono::duration<double>(progress_s);
     }
-    if (total != last_total) {
-      last_total = total;
-      last_change = Clock::now();
+    if (duration_s > 0.0 && stats.elapsed_s >= duration_s) break;
+    const bool anyone_alive = std::any_of(stats.agents.begin(), stats.agents.end(), [](const auto& a) { return a.second.alive; });
+    if (idle_exit_s > 0.0 && stats.last_data_s >= 0.0 && !anyone_alive && stats.elapsed_s - stats.last_data_s >= idle_exit_s &&
+        backend->Idle()) {
+      spdlog::info("every agent left and no data for {:.0f} s: stopping", idle_exit_s);
+      break;
     }
-    const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-    if (duration_s > 0.0 && elapsed >= duration_s) break;
-    if (idle_exit_s > 0.0 && total > 0 && std::chrono::duration<double>(Clock::now() - last_change).count() >= idle_exit_s) break;
   }
+  spdlog::info("stopping: finishing queued work");
   comm->Stop();
-  const auto stats = comm->Stats();
-  nlohmann::json summary = {{"messages_sent", stats.messages_sent}, {"bad_version", stats.bad_version}};
-  for (const auto& [id, agent] : stats.agents) {
-    summary["agents"][std::to_string(id)] = {{"keyframes", agent.keyframes.size()}, {"duplicates", agent.duplicates},
-                                             {"status_msgs", agent.status_msgs}};
+  runner->Stop();
+  backend->ProcessAllQueued();
+  if (!no_final_ba) {
+    for (const auto& m : backend->Maps()) {
+      if (m.keyframes >= 3) backend->ScheduleGlobalBa(m.id);
+    }
+    backend->ProcessAllQueued();
   }
-  std::cout << summary.dump() << std::endl;
-  return 0;
+  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const auto comm_stats = comm->Stats();
+  const auto traffic = comm->Traffic();
+  LogProgress(*backend, comm_stats);
+  int code = 0;
+  if (!config.save_map.empty()) {
+    if (backend->Save(config.save_map, &error)) {
+      spdlog::info("map stack saved to {}", config.save_map);
+    } else {
+      spdlog::error("saving the map stack failed: {}", error);
+      code = 1;
+    }
+  }
+  if (!out_dir.empty()) {
+    if (server::WriteServerOutputs(out_dir, *backend, comm_stats, traffic, wall_s, &error)) {
+      spdlog::info("outputs in {}", out_dir);
+    } else {
+      spdlog::error("writing outputs failed: {}", error);
+      code = 1;
+    }
+  }
+  std::cout << server::CommSummaryJson(comm_stats, traffic, backend->stats()) << std::endl;
+  return code;
 }

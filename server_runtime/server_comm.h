@@ -1,61 +1,152 @@
-// The server's communication module: receives keyframes and status from all agents,
-// keeps one handler record per agent, and periodically sends each agent a ServerToAgent
-// message acknowledging what was processed (each ack repeated `ack_repeats` times since
-// the message is BEST_EFFORT). Owns one thread (Start/Stop); Stats() from any thread.
+// The server's communication module: the DDS side of ccm_server. One comm thread (owned
+// here, Start/Stop) does all of it, so DDS receive threads never wait on SLAM work:
+//  * intake: the readers' listeners only enqueue (bounded queues; runtime_common/
+//    typed_endpoints.h). The comm thread pops, converts and validates every message
+//    (conv::FromMsg: a rejection is counted and logged once per kind), admits agents
+//    (protocol version, max_agents), groups each agent's data per map segment into an
+//    AgentBatch and submits it to the back-end, whose bounded per-agent queue decouples the
+//    agent's handler thread (BackendRunner). A slow handler therefore only fills its own
+//    queue; a batch beyond it is dropped and counted, and the agent resends every keyframe
+//    the server never acknowledged (with its points: ChangePacker::Resend).
+//  * outgoing, every 1/publish_rate_hz per agent: a small acks-only ServerToAgent (each ack
+//    repeated ack_repeats times: the topic is BEST_EFFORT) and, when map sharing is on and
+//    the agent's reference keyframe moved, a separate message with the k keyframes most
+//    covisible with it. Two messages because a 200 kB neighbourhood fragments into ~150
+//    datagrams and rarely survives a lossy link whole; the acks must.
+//  * keyframes wait for their points: KFs and points travel on separate reliable streams, so
+//    on a lossy link a keyframe often arrives before the points it created. Registered
+//    without them it has nothing to refine against, and place recognition (which runs
+//    right after registration) would verify it without 3-D points and miss the match
+//    (measured: no fusion at 20% loss). A keyframe is therefore held until every own
+//    point it links has arrived, at most kMaxKeyframeHold, in arrival order.
+//  * liveliness: an agent that sent nothing (heartbeat included) for liveliness_timeout_s has
+//    left; its maps stay, and it is logged when it returns.
+// Stats() and the counters are readable from any thread.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <set>
+#include <string>
 #include <thread>
+#include <unordered_set>
+#include <vector>
 
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
+#include "runtime_common/msg_conversion.h"
 #include "runtime_common/typed_endpoints.h"
 #include "server_runtime/server_config.h"
+#include "slam_core/server/server_backend.h"
 
 namespace ccm::server {
 
-struct AgentRecord {
-  std::set<std::uint64_t> keyframes;       // unique KF ids received
-  std::uint64_t duplicates = 0;            // resends of KFs we already had
-  std::uint64_t status_msgs = 0;
-  std::uint64_t last_ref_kf = 0;
-  std::deque<std::pair<std::uint64_t, int>> pending_acks;  // (kf id, times still to send)
+/// What the server knows about one agent's link (its own heartbeat counters included).
+struct AgentLink {
+  int64_t keyframes = 0, map_points = 0, keyframe_updates = 0, map_point_updates = 0;
+  int64_t status_msgs = 0;
+  int64_t rejected = 0;               ///< messages that failed validation
+  int64_t batches_submitted = 0, batches_dropped = 0;
+  int64_t messages_sent = 0, neighbourhoods_sent = 0;
+  int64_t keyframes_released_incomplete = 0;  ///< held the maximum time, some points still missing
+  KeyframeId reference_kf;
+  MapId segment;
+  std::set<MapId> segments;           ///< every segment seen (a restart or tracking loss adds one)
+  bool alive = false;
+  int leaves = 0;                     ///< times it went silent for liveliness_timeout_s
+  double last_seen_s = 0.0;           ///< since the comm module started
+  // From its last heartbeat.
+  uint32_t kfs_created = 0, kfs_sent = 0, kfs_acked = 0, kfs_resent = 0, kfs_lost = 0;
+  int tracking_state = 0;
 };
 
-struct ServerStats {
-  std::map<std::uint16_t, AgentRecord> agents;
-  std::uint64_t messages_sent = 0;
-  std::uint64_t bad_version = 0;
+struct ServerCommStats {
+  std::map<AgentId, AgentLink> agents;
+  int64_t refused_agents = 0;         ///< messages from agents beyond max_agents
+  int64_t rejected = 0;
+  std::map<std::string, int64_t> rejected_by_kind;
+  double elapsed_s = 0.0;
+  double last_data_s = -1.0;          ///< last keyframe/point/update received (-1: none yet)
 };
 
 class ServerComm {
  public:
+  /// `backend` must outlive the comm module; submitting to it is thread-safe.
   static std::unique_ptr<ServerComm> Create(const ServerConfig& config, rt::SessionOptions session_options,
-                                            std::string* error);
+                                            ServerBackend* backend, std::string* error);
   ~ServerComm();
   void Start();
   void Stop();
-  ServerStats Stats() const;
+  ServerCommStats Stats() const;
   std::vector<rt::TopicCountersSnapshot> Traffic() const { return session_->TrafficSnapshot(); }
 
  private:
-  ServerComm(ServerConfig config, std::unique_ptr<rt::DdsSession> session);
-  void Run();
-  void OnKeyframe(const msg::KeyframeFull& kf);
-  void PublishAcks();
+  struct PendingAck {
+    uint64_t id;
+    int repeats_left;
+  };
+  struct AgentState {  // comm thread only
+    std::deque<PendingAck> kf_acks, mp_acks;
+    KeyframeId shared_ref;  ///< reference keyframe of the last neighbourhood sent
+    std::chrono::steady_clock::time_point next_publish;
+    rt::TypedWriter<msg::ServerToAgentPubSubType>* writer = nullptr;
+  };
+  using BatchKey = std::pair<AgentId, uint64_t>;  // (agent, segment)
+  struct HeldKeyframe {
+    KeyframeData data;
+    KeyframeId reference_kf;
+    std::chrono::steady_clock::time_point since;
+  };
+  /// Point ids received from one agent in the last kSeenPointsWindow; ids below
+  /// `pruned_below` (counter) count as received (a keyframe rarely links points that old,
+  /// and if it does it waits at most kMaxKeyframeHold).
+  struct SeenPoints {
+    std::unordered_set<uint64_t> ids;
+    std::deque<std::pair<std::chrono::steady_clock::time_point, uint64_t>> order;
+    uint64_t pruned_below = 0;
+  };
 
-  ServerConfig config_;
-  std::unique_ptr<rt::DdsSession> session_;
+  ServerComm(ServerConfig config, std::unique_ptr<rt::DdsSession> session, ServerBackend* backend);
+  void Run();
+  bool Intake();  // returns whether anything arrived
+  bool Admit(AgentId agent, const char* what);
+  void Reject(AgentId agent, const std::string& reason);
+  AgentBatch& BatchFor(std::map<BatchKey, AgentBatch>* batches, AgentId agent, MapId segment);
+  void SubmitBatches(std::map<BatchKey, AgentBatch>* batches);
+  void NotePoint(AgentId agent, MapPointId id);
+  /// Moves held keyframes whose points all arrived (or that waited long enough) to `batches`.
+  void ReleaseKeyframes(std::map<BatchKey, AgentBatch>* batches);
+  void PublishToAgents();
+  void CheckLiveliness();
+  double Elapsed() const;
+
+  const ServerConfig config_;
+  std::unique_ptr<rt::DdsSession> session_;  // destroyed last (declared first)
+  ServerBackend* backend_;
   std::unique_ptr<rt::TypedReader<msg::KeyframeFullPubSubType>> keyframe_reader_;
+  std::unique_ptr<rt::TypedReader<msg::MapPointBatchPubSubType>> point_reader_;
+  std::unique_ptr<rt::TypedReader<msg::KeyframeUpdatePubSubType>> kf_update_reader_;
+  std::unique_ptr<rt::TypedReader<msg::MapPointUpdateBatchPubSubType>> mp_update_reader_;
   std::unique_ptr<rt::TypedReader<msg::AgentStatusPubSubType>> status_reader_;
-  std::unique_ptr<rt::TypedWriter<msg::ServerToAgentPubSubType>> server_writer_;
-  mutable std::mutex mutex_;  // guards stats_
-  ServerStats stats_;
+  /// One writer per agent, in that agent's partition (rt::AgentPartition): created when the
+  /// agent is first heard of, so its messages reach it alone.
+  std::map<AgentId, std::unique_ptr<rt::TypedWriter<msg::ServerToAgentPubSubType>>> writers_;
+
+  // Comm thread.
+  conv::CameraCache cameras_;
+  std::map<AgentId, AgentState> states_;
+  std::map<AgentId, std::deque<HeldKeyframe>> held_;
+  std::map<AgentId, SeenPoints> seen_points_;
+  std::set<std::string> logged_kinds_;
+  std::set<AgentId> refused_logged_;
+
+  const std::chrono::steady_clock::time_point start_;
+  mutable std::mutex mutex_;  // guards stats_; leaf
+  ServerCommStats stats_;
   std::atomic<bool> running_{false};
   std::thread thread_;
 };

@@ -9,6 +9,8 @@ std::string ServerConfig::Validate() const {
   if (!(publish_rate_hz > 0.0 && publish_rate_hz <= 50.0)) return "publish_rate_hz must be in (0, 50]";
   if (ack_repeats < 1 || ack_repeats > 20) return "ack_repeats must be in 1..20";
   if (max_agents < 1 || max_agents > 64) return "max_agents must be in 1..64 (see resource limits in the QoS file)";
+  if (neighbourhood_k < 0 || neighbourhood_k > 16) return "neighbourhood_k must be in 0..16 (idl kMaxKeyframesPerServerMsg)";
+  if (!(liveliness_timeout_s > 0.0)) return "liveliness_timeout_s must be > 0";
   return {};
 }
 
@@ -22,6 +24,12 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("ack_repeats", &config->ack_repeats);
   r.Get("max_agents", &config->max_agents);
+  r.Get("map_sharing", &config->map_sharing);
+  r.Get("neighbourhood_k", &config->neighbourhood_k);
+  r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);
+  r.Get("vocabulary", &config->vocabulary);
+  r.Get("load_map", &config->load_map);
+  r.Get("save_map", &config->save_map);
   r.RejectUnknownKeys();
   if (!r.ok()) {
     *error = r.error();

@@ -12,6 +12,12 @@ struct ServerConfig {
   double publish_rate_hz = 1.0;      // server -> agent messages per agent per second (< agent rate)
   int ack_repeats = 3;               // each ack is repeated in this many messages (they are BEST_EFFORT)
   int max_agents = 16;
+  bool map_sharing = true;           // send each agent the k keyframes most covisible with its reference KF
+  int neighbourhood_k = 5;           // that k (CCM-SLAM: 5)
+  double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)
+  std::string vocabulary;            // bag-of-words vocabulary file; empty: the built-in simulator one
+  std::string load_map;              // start from this saved map stack (empty: fresh)
+  std::string save_map;              // save the map stack here on exit (empty: not saved)
 
   std::string Validate() const;
 };

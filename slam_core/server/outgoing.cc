@@ -33,8 +33,13 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
   ServerMapData data;
   data.reference_kf = reference_kf;
   std::set<KeyframeId> sent;
-  for (const KeyframeId id : base->BestCovisible(options.keyframes + 1)) {
-    if (id == reference_kf || static_cast<int>(data.keyframes.size()) >= options.keyframes) continue;
+  // Other agents' keyframes only: the agent's own covisible keyframes are in its local map
+  // already (it made them), and sending them back would double the downlink for nothing.
+  // Before any fusion this is empty and nothing is sent.
+  for (const KeyframeId id : base->BestCovisible(8 * options.keyframes + 1)) {
+    if (id == reference_kf || id.agent() == agent || static_cast<int>(data.keyframes.size()) >= options.keyframes) {
+      continue;
+    }
     const auto kf = map.keyframe(id);
     if (!kf) continue;
     ServerKeyframe skf;

@@ -1,7 +1,7 @@
 // What the server sends back to an agent (CCM-SLAM 4.5): the k keyframes most covisible
-// with the agent's reference keyframe, from any agent, and their points, expressed relative
-// to that reference keyframe in the agent's VO scale (the handler's lambda), so the agent
-// can place them however its own frame drifted. Synchronous; takes the map's structure lock
+// with the agent's reference keyframe, from any other agent (its own it has), and their
+// points, expressed relative to that reference keyframe in the agent's VO scale (the
+// handler's lambda), so the agent can place them however its own frame drifted. Synchronous; takes the map's structure lock
 // shared while it copies.
 #pragma once
 

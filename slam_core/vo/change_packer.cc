@@ -101,11 +101,19 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   }
   std::set<KeyframeId> kfs = changes.keyframes;
   kfs.insert(resend_.begin(), resend_.end());
+  // A resent keyframe goes with its own points in full: whatever kept the server from
+  // acknowledging the keyframe (a dropped batch, a restarted server) may have lost them too.
+  std::set<MapPointId> points = changes.map_points, resend_points;
   for (const KeyframeId id : kfs) {
     if (id.agent() != agent_) continue;
     const bool full = resend_.count(id) || !sent_kfs_.count(id);
     if (full) {
       if (auto d = PackKeyframe(map, id)) {
+        if (resend_.count(id)) {
+          for (const auto& link : d->point_links) {
+            if (link.second.agent() == agent_) resend_points.insert(link.second);
+          }
+        }
         batch.keyframes.push_back(std::move(*d));
         sent_kfs_.insert(id);
         ++keyframes_sent_;
@@ -121,16 +129,23 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
     batch.keyframe_updates.push_back(u);
   }
   resend_.clear();
-  for (const MapPointId id : changes.map_points) {
+  points.insert(resend_points.begin(), resend_points.end());
+  for (const MapPointId id : points) {
     if (id.agent() != agent_) continue;
     auto d = PackMapPoint(map, id);
     if (!d) continue;
-    if (!sent_points_.count(id)) {
-      sent_points_.insert(id);
+    auto sent = sent_points_.find(id);
+    if (sent == sent_points_.end() || resend_points.count(id)) {
+      sent_points_[id] = {d->reference_kf, d->position_ref};
       batch.map_points.push_back(std::move(*d));
       ++points_sent_;
-    } else {
+    } else if (sent->second.reference_kf != d->reference_kf ||
+               (d->position_ref - sent->second.position_ref).norm() >
+                   min_point_update_ratio_ * sent->second.position_ref.norm()) {
+      sent->second = {d->reference_kf, d->position_ref};
       batch.map_point_updates.push_back({id, d->reference_kf, d->position_ref});
+    } else {
+      ++point_updates_skipped_;
     }
   }
   if (++packs_ % 64 == 0) Forget(map);
@@ -141,7 +156,7 @@ void ChangePacker::Forget(const Map& map) {
   // Ids that left the local map never change again: keep the sets bounded on long flights.
   for (auto it = sent_kfs_.begin(); it != sent_kfs_.end();) it = map.keyframe(*it) ? std::next(it) : sent_kfs_.erase(it);
   for (auto it = sent_points_.begin(); it != sent_points_.end();) {
-    it = map.map_point(*it) ? std::next(it) : sent_points_.erase(it);
+    it = map.map_point(it->first) ? std::next(it) : sent_points_.erase(it);
   }
 }
 

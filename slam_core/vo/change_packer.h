@@ -7,6 +7,7 @@
 #pragma once
 
 #include <optional>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "slam_core/exchange/agent_data.h"
@@ -24,25 +25,37 @@ std::optional<MapPointData> PackMapPoint(const Map& map, MapPointId id);
 
 class ChangePacker {
  public:
-  explicit ChangePacker(AgentId agent) : agent_(agent) {}
+  /// `min_point_update_ratio`: a sent point's new position goes out only if it moved by more
+  /// than this fraction of its depth in the reference keyframe (or its reference changed).
+  /// Local BA nudges every point of its window each time; most moves are far below what
+  /// matters to the server, which refines the points itself, and were most of the uplink.
+  explicit ChangePacker(AgentId agent, double min_point_update_ratio = 0.01)
+      : agent_(agent), min_point_update_ratio_(min_point_update_ratio) {}
 
   /// Everything changed in `changes.map` since the last call. Keyframes sorted by id.
   AgentBatch Pack(const VoChanges& changes, int64_t stamp_ns);
-  /// Send `kf` in full again with the next Pack (the server never acknowledged it).
+  /// Send `kf` in full again with the next Pack (the server never acknowledged it), with the
+  /// points it observes that this agent created, also in full.
   void Resend(KeyframeId kf) { resend_.insert(kf); }
 
   size_t keyframes_sent() const { return keyframes_sent_; }
   size_t map_points_sent() const { return points_sent_; }
+  size_t point_updates_skipped() const { return point_updates_skipped_; }
 
  private:
   void Forget(const Map& map);
 
+  struct SentPoint {
+    KeyframeId reference_kf;
+    Eigen::Vector3d position_ref;
+  };
   const AgentId agent_;
+  const double min_point_update_ratio_;
   std::unordered_set<KeyframeId> sent_kfs_;
-  std::unordered_set<MapPointId> sent_points_;
+  std::unordered_map<MapPointId, SentPoint> sent_points_;  ///< as the server last got them
   std::unordered_set<KeyframeId> resend_;
   MapId segment_;
-  size_t keyframes_sent_ = 0, points_sent_ = 0;
+  size_t keyframes_sent_ = 0, points_sent_ = 0, point_updates_skipped_ = 0;
   int packs_ = 0;
 };
 

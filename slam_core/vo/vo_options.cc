@@ -6,6 +6,10 @@ std::string VoOptions::Validate() const {
   if (auto e = orb.Validate(); !e.empty()) return "orb: " + e;
   if (auto e = map.Validate(); !e.empty()) return "map: " + e;
   if (auto e = bound.Validate(); !e.empty()) return "local map: " + e;
+  if (first_id_counter == 0 || first_id_counter >= (uint64_t{1} << 47)) return "first_id_counter must be in [1, 2^47)";
+  if (first_segment_counter == 0 || first_segment_counter >= (uint64_t{1} << 31)) {
+    return "first_segment_counter must be in [1, 2^31)";
+  }
   if (init_num_features < orb.num_features) return "init_num_features must be >= orb.num_features";
   if (init_min_matches < 8) return "init_min_matches must be >= 8";
   if (init_min_homography_ratio <= 0 || init_min_homography_ratio > 1) return "init_min_homography_ratio must be in (0, 1]";

@@ -57,6 +57,13 @@ struct VoOptions {
   int lost_frames_before_new_segment = 40;  ///< failed relocalizations before a new segment
   int reset_if_lost_below_keyframes = 5;    ///< lost with <= this many KFs: re-initialize
 
+  // Id counters. A restarted agent process must not reuse the ids of its previous life (the
+  // server would take its new keyframes for resends of old ones): the agent runtime starts
+  // them from a clock-derived base (agent_runtime/agent_runner.cc). Keyframe/point counters
+  // have 48 bits, segment counters travel in 32 (idl KeyframeUpdate::segment_counter).
+  uint64_t first_id_counter = 1;       ///< first keyframe and map point counter
+  uint64_t first_segment_counter = 1;  ///< first map segment counter (< 2^32)
+
   // Local mapping.
   int triangulation_neighbours = 10;   ///< covisible KFs searched for new points
   int fusion_neighbours = 10;

@@ -17,12 +17,12 @@ namespace ccm {
 template <typename IdT>
 class AtomicIdGenerator {
  public:
-  explicit AtomicIdGenerator(AgentId agent) : agent_(agent) {}
+  AtomicIdGenerator(AgentId agent, uint64_t first) : agent_(agent), next_(first == 0 ? 1 : first) {}
   IdT Next() { return IdT::Make(agent_, next_.fetch_add(1)); }
 
  private:
   const AgentId agent_;
-  std::atomic<uint64_t> next_{1};
+  std::atomic<uint64_t> next_;
 };
 
 /// Keyframes and points created or changed since the comm module last asked.
@@ -69,9 +69,9 @@ struct VoShared {
         camera(std::move(cam)),
         options(opts),
         pyramid(std::make_shared<ScalePyramid>(ScalePyramid::Make(opts.orb.num_levels, opts.orb.scale_factor))),
-        kf_ids(agent_id),
-        mp_ids(agent_id),
-        map_ids(agent_id) {}
+        kf_ids(agent_id, opts.first_id_counter),
+        mp_ids(agent_id, opts.first_id_counter),
+        map_ids(agent_id, opts.first_segment_counter) {}
 
   const AgentId agent;
   const std::shared_ptr<const CameraModel> camera;

@@ -1,0 +1,93 @@
+#include "server_runtime/server_outputs.h"
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "tools/replay/replay_report.h"
+
+namespace ccm::server {
+
+std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::TopicCountersSnapshot>& traffic,
+                            const BackendStats& backend, int indent) {
+  nlohmann::json agents = nlohmann::json::object();
+  for (const auto& [id, l] : comm.agents) {
+    const AgentCounters counters = backend.agents.count(id) ? backend.agents.at(id) : AgentCounters{};
+    agents[std::to_string(id)] = {{"keyframes_received", l.keyframes},
+                                  {"map_points_received", l.map_points},
+                                  {"keyframe_updates_received", l.keyframe_updates},
+                                  {"map_point_updates_received", l.map_point_updates},
+                                  {"keyframes_registered", counters.keyframes_registered},
+                                  {"keyframes_skipped_as_duplicates", counters.keyframes_duplicate},
+                                  {"status_msgs", l.status_msgs},
+                                  {"rejected", l.rejected},
+                                  {"batches_submitted", l.batches_submitted},
+                                  {"batches_dropped", l.batches_dropped},
+                                  {"messages_sent", l.messages_sent},
+                                  {"neighbourhoods_sent", l.neighbourhoods_sent},
+                                  {"keyframes_released_incomplete", l.keyframes_released_incomplete},
+                                  {"segments", l.segments.size()},
+                                  {"leaves", l.leaves},
+                                  {"agent_reported", {{"kfs_created", l.kfs_created},
+                                                      {"kfs_sent", l.kfs_sent},
+                                                      {"kfs_acked", l.kfs_acked},
+                                                      {"kfs_resent", l.kfs_resent},
+                                                      {"kfs_lost", l.kfs_lost}}}};
+  }
+  nlohmann::json topics = nlohmann::json::object();
+  for (const auto& t : traffic) {
+    topics[t.topic + ":" + t.direction] = {{"samples", t.samples},
+                                           {"bytes", t.payload_bytes},
+                                           {"write_failures", t.write_failures},
+                                           {"samples_lost", t.samples_lost},
+                                           {"queue_dropped", t.queue_dropped}};
+  }
+  const nlohmann::json j = {{"elapsed_s", comm.elapsed_s},
+                            {"agents", agents},
+                            {"refused_agents", comm.refused_agents},
+                            {"rejected", comm.rejected},
+                            {"rejected_by_kind", comm.rejected_by_kind},
+                            {"fusions", backend.fusions},
+                            {"loops", backend.loops},
+                            {"traffic", topics}};
+  return j.dump(indent);
+}
+
+bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, const ServerCommStats& comm,
+                        const std::vector<rt::TopicCountersSnapshot>& traffic, double wall_s, std::string* error) {
+  // The live server has no ground truth: the report scores nothing and names the files.
+  replay::ReplayResult result;
+  for (const AgentId id : backend.agents()) {
+    replay::ReplayAgentResult a;
+    a.name = "agent" + std::to_string(id);
+    a.id = id;
+    a.server_keyframes = backend.AgentTrajectory(id);
+    if (comm.agents.count(id)) {
+      a.keyframes_created = comm.agents.at(id).kfs_created;
+      a.segments = static_cast<int>(comm.agents.at(id).segments.size());
+    }
+    result.agents.push_back(std::move(a));
+  }
+  result.events = backend.events();
+  result.maps = backend.Maps();
+  result.stats = backend.stats();
+  result.wall_s = wall_s;
+  const replay::ReplayEvaluation ev = replay::EvaluateReplay(result);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    *error = "cannot create " + dir + ": " + ec.message();
+    return false;
+  }
+  // Without any map (no agent ever sent a keyframe) there is nothing to draw.
+  if (!result.maps.empty() && !replay::WriteReplayOutputs(dir, result, ev, backend, error)) return false;
+  std::ofstream out(dir + "/server.json");
+  out << CommSummaryJson(comm, traffic, result.stats, 2) << "\n";
+  if (!out) {
+    *error = "cannot write " + dir + "/server.json";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace ccm::server

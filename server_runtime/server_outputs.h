@@ -1,0 +1,22 @@
+// What ccm_server leaves behind when it stops with --out DIR: each agent's keyframe
+// trajectory in the final map's frame (agent<id>_keyframes.tum), summary.json (maps, fusion
+// and loop events with times, keyframe counts, timings; written by the replay tool's
+// report code so offline and live runs read the same), map.ply, map_top.png, and
+// server.json (the communication module's per-agent link counters and topic traffic).
+#pragma once
+
+#include <string>
+
+#include "server_runtime/server_comm.h"
+#include "slam_core/server/server_backend.h"
+
+namespace ccm::server {
+
+bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, const ServerCommStats& comm,
+                        const std::vector<rt::TopicCountersSnapshot>& traffic, double wall_s, std::string* error);
+
+/// The one-line JSON the server prints on exit (also the body of server.json).
+std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::TopicCountersSnapshot>& traffic,
+                            const BackendStats& backend, int indent = -1);
+
+}  // namespace ccm::server
