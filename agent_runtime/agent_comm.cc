@@ -193,9 +193,13 @@ void AgentComm::WriteBacklog() {
     if (points.points().size() >= msg::kMaxPointsPerBatch) flush_points();
   }
   flush_points();
-  std::unordered_map<uint64_t, const msg::KeyframeUpdate*> latest_kf;
-  for (const auto& u : kf_updates_) latest_kf[u.id()] = &u;
-  for (const auto& [id, u] : latest_kf) failures += kf_update_writer_->Write(*u) ? 0 : 1;
+  for (const auto& u : kf_updates_) kf_update_repeats_[u.id()] = {u, kKeyframeUpdateCopies};
+  uint64_t kf_updates_written = 0;
+  for (auto it = kf_update_repeats_.begin(); it != kf_update_repeats_.end();) {
+    failures += kf_update_writer_->Write(it->second.first) ? 0 : 1;
+    ++kf_updates_written;
+    it = --it->second.second > 0 ? std::next(it) : kf_update_repeats_.erase(it);
+  }
   std::unordered_map<uint64_t, const msg::MapPointUpdate*> latest_mp;
   for (const auto& u : mp_updates_) latest_mp[u.id()] = &u;
   msg::MapPointUpdateBatch updates;
@@ -218,7 +222,7 @@ void AgentComm::WriteBacklog() {
   stats_.kfs_sent += kfs;
   stats_.kfs_resent += resent;
   stats_.mps_sent += mps;
-  stats_.kf_updates_sent += latest_kf.size();
+  stats_.kf_updates_sent += kf_updates_written;
   stats_.mp_updates_sent += latest_mp.size();
   stats_.write_failures += failures;
   stats_.backlog_bytes = backlog;

@@ -17,6 +17,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include "agent_runtime/ack_tracker.h"
@@ -97,6 +98,11 @@ class AgentComm {
   std::deque<msg::KeyframeFull> kf_backlog_;
   std::deque<msg::MapPointFull> mp_backlog_;
   std::vector<msg::KeyframeUpdate> kf_updates_;
+  /// Keyframe updates are BEST_EFFORT: the latest pose of each keyframe goes out in
+  /// kKeyframeUpdateCopies consecutive cycles (148 B each), so the last refinement of a
+  /// keyframe, which no later update supersedes, survives a lossy link (20% -> 4% lost).
+  static constexpr int kKeyframeUpdateCopies = 2;
+  std::unordered_map<uint64_t, std::pair<msg::KeyframeUpdate, int>> kf_update_repeats_;
   std::vector<msg::MapPointUpdate> mp_updates_;
   std::vector<std::string> rejection_kinds_logged_;
   std::set<uint64_t> resend_ids_;  ///< packed again for a resend, not written yet

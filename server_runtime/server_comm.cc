@@ -22,7 +22,8 @@ constexpr int kMaxOtherPerCycle = 8192;
 constexpr int kMaxBatchesPerCycle = 16;
 
 constexpr std::chrono::milliseconds kMaxKeyframeHold(1500);
-constexpr std::chrono::seconds kSeenPointsWindow(120);
+constexpr std::chrono::seconds kSeenWindow(120);
+constexpr size_t kMaxEarlyUpdates = 65536;  // per agent and kind; beyond: the oldest go
 
 // Agent ids are 16 bits on the wire; 0 is never a valid agent.
 bool ValidAgentId(uint16_t id) { return id != 0; }
@@ -184,6 +185,15 @@ bool ServerComm::Intake() {
       Reject(agent, error);
       continue;
     }
+    seen_keyframes_[agent].Note(d->id.packed(), d->id.counter(), Clock::now());
+    auto& early = early_[agent].keyframes;
+    if (auto it = early.find(d->id.packed()); it != early.end()) {
+      d->predecessor = it->second.predecessor;
+      d->pred_from_cam = it->second.pred_from_cam;
+      d->parent = it->second.parent;
+      d->parent_from_cam = it->second.parent_from_cam;
+      early.erase(it);
+    }
     const MapId segment = d->segment;
     held_[agent].push_back({std::move(*d), ref, Clock::now()});
     std::lock_guard<std::mutex> lock(mutex_);
@@ -209,7 +219,13 @@ bool ServerComm::Intake() {
         Reject(agent, p.agent_id() == agent ? error : "map point: agent id differs from its batch's");
         continue;
       }
-      NotePoint(agent, d->id);
+      seen_points_[agent].Note(d->id.packed(), d->id.counter(), Clock::now());
+      auto& early = early_[agent].points;
+      if (auto it = early.find(d->id.packed()); it != early.end()) {
+        d->reference_kf = it->second.reference_kf;
+        d->position_ref = it->second.position_ref;
+        early.erase(it);
+      }
       BatchFor(&batches, agent, d->segment).map_points.push_back(std::move(*d));
       ++accepted;
     }
@@ -227,6 +243,13 @@ bool ServerComm::Intake() {
       Reject(agent, error);
       continue;
     }
+    if (!seen_keyframes_[agent].Seen(d->id.packed(), d->id.counter())) {
+      auto& early = early_[agent].keyframes;
+      if (early.size() >= kMaxEarlyUpdates) early.clear();  // a flood of unknown ids: not worth keeping
+      early[d->id.packed()] = *d;
+      continue;
+    }
+    if (ApplyToHeld(agent, *d)) continue;
     BatchFor(&batches, agent, d->segment).keyframe_updates.push_back(*d);
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.agents[agent].keyframe_updates;
@@ -250,6 +273,12 @@ bool ServerComm::Intake() {
         Reject(agent, u.agent_id() == agent ? error : "map point update: agent id differs from its batch's");
         continue;
       }
+      if (!seen_points_[agent].Seen(d->id.packed(), d->id.counter())) {
+        auto& early = early_[agent].points;
+        if (early.size() >= kMaxEarlyUpdates) early.clear();
+        early[d->id.packed()] = *d;
+        continue;
+      }
       BatchFor(&batches, agent, segment).map_point_updates.push_back(*d);
       ++accepted;
     }
@@ -265,26 +294,37 @@ bool ServerComm::Intake() {
   return got || data;
 }
 
-void ServerComm::NotePoint(AgentId agent, MapPointId id) {
-  SeenPoints& seen = seen_points_[agent];
-  const auto now = Clock::now();
-  if (seen.ids.insert(id.packed()).second) seen.order.emplace_back(now, id.packed());
-  while (!seen.order.empty() && now - seen.order.front().first > kSeenPointsWindow) {
-    seen.pruned_below = std::max(seen.pruned_below, MapPointId(seen.order.front().second).counter() + 1);
-    seen.ids.erase(seen.order.front().second);
-    seen.order.pop_front();
+void ServerComm::SeenIds::Note(uint64_t packed, uint64_t counter, Clock::time_point now) {
+  (void)counter;
+  if (ids.insert(packed).second) order.emplace_back(now, packed);
+  while (!order.empty() && now - order.front().first > kSeenWindow) {
+    pruned_below = std::max(pruned_below, (order.front().second & ((uint64_t{1} << 48) - 1)) + 1);
+    ids.erase(order.front().second);
+    order.pop_front();
   }
+}
+
+bool ServerComm::ApplyToHeld(AgentId agent, const KeyframePoseUpdate& u) {
+  for (HeldKeyframe& h : held_[agent]) {
+    if (h.data.id != u.id) continue;
+    h.data.predecessor = u.predecessor;
+    h.data.pred_from_cam = u.pred_from_cam;
+    h.data.parent = u.parent;
+    h.data.parent_from_cam = u.parent_from_cam;
+    return true;
+  }
+  return false;
 }
 
 void ServerComm::ReleaseKeyframes(std::map<BatchKey, AgentBatch>* batches) {
   const auto now = Clock::now();
   for (auto& [agent, held] : held_) {
-    const SeenPoints& seen = seen_points_[agent];
+    const SeenIds& seen = seen_points_[agent];
     while (!held.empty()) {
       const HeldKeyframe& h = held.front();
       const bool complete = std::all_of(h.data.point_links.begin(), h.data.point_links.end(), [&](const auto& link) {
         const MapPointId mp = link.second;
-        return mp.agent() != agent || mp.counter() < seen.pruned_below || seen.ids.count(mp.packed());
+        return mp.agent() != agent || seen.Seen(mp.packed(), mp.counter());
       });
       if (!complete && now - h.since < kMaxKeyframeHold) break;  // keep the agent's order
       if (!complete) {

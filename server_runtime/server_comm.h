@@ -33,6 +33,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -101,13 +102,23 @@ class ServerComm {
     KeyframeId reference_kf;
     std::chrono::steady_clock::time_point since;
   };
-  /// Point ids received from one agent in the last kSeenPointsWindow; ids below
+  /// Ids (keyframes or points) received from one agent in the last kSeenWindow; ids below
   /// `pruned_below` (counter) count as received (a keyframe rarely links points that old,
   /// and if it does it waits at most kMaxKeyframeHold).
-  struct SeenPoints {
+  struct SeenIds {
     std::unordered_set<uint64_t> ids;
     std::deque<std::pair<std::chrono::steady_clock::time_point, uint64_t>> order;
     uint64_t pruned_below = 0;
+    void Note(uint64_t packed, uint64_t counter, std::chrono::steady_clock::time_point now);
+    bool Seen(uint64_t packed, uint64_t counter) const { return counter < pruned_below || ids.count(packed) > 0; }
+  };
+  /// Updates that overtook their full keyframe or point: the BEST_EFFORT update stream has no
+  /// repair delay, so on a lossy link the first local-BA refinement of a keyframe often
+  /// arrives before the keyframe itself, and the back-end would ignore it (measured: 2-4x
+  /// the loss-free ATE). Kept (latest wins) and applied when the full data arrives.
+  struct EarlyUpdates {
+    std::unordered_map<uint64_t, KeyframePoseUpdate> keyframes;
+    std::unordered_map<uint64_t, MapPointPositionUpdate> points;
   };
 
   ServerComm(ServerConfig config, std::unique_ptr<rt::DdsSession> session, ServerBackend* backend);
@@ -117,7 +128,8 @@ class ServerComm {
   void Reject(AgentId agent, const std::string& reason);
   AgentBatch& BatchFor(std::map<BatchKey, AgentBatch>* batches, AgentId agent, MapId segment);
   void SubmitBatches(std::map<BatchKey, AgentBatch>* batches);
-  void NotePoint(AgentId agent, MapPointId id);
+  /// A keyframe update for a keyframe still held here changes the held data; true if so.
+  bool ApplyToHeld(AgentId agent, const KeyframePoseUpdate& u);
   /// Moves held keyframes whose points all arrived (or that waited long enough) to `batches`.
   void ReleaseKeyframes(std::map<BatchKey, AgentBatch>* batches);
   void PublishToAgents();
@@ -140,7 +152,8 @@ class ServerComm {
   conv::CameraCache cameras_;
   std::map<AgentId, AgentState> states_;
   std::map<AgentId, std::deque<HeldKeyframe>> held_;
-  std::map<AgentId, SeenPoints> seen_points_;
+  std::map<AgentId, SeenIds> seen_points_, seen_keyframes_;
+  std::map<AgentId, EarlyUpdates> early_;
   std::set<std::string> logged_kinds_;
   std::set<AgentId> refused_logged_;
 
