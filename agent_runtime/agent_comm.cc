@@ -60,7 +60,7 @@ AgentComm::AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session
       session_(std::move(session)),
       vo_(vo),
       acks_(acks),
-      packer_(static_cast<AgentId>(config_.agent_id)) {}
+      packer_(static_cast<AgentId>(config_.agent_id), 0.01, config_.new_keyframe_delay_s) {}
 
 AgentComm::~AgentComm() { Stop(); }
 
@@ -81,16 +81,16 @@ AgentCommStats AgentComm::Stats() const {
 
 bool AgentComm::Drained() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  return stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0;
+  return stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0 && stats_.deferred == 0;
 }
 
 bool AgentComm::WaitDrained(std::chrono::milliseconds timeout) {
   const auto deadline = Clock::now() + timeout;
+  flush_requested_ = true;  // the flight is over: nothing waits for the keyframe delay now
   {
     std::unique_lock<std::mutex> lock(stats_mutex_);
-    const bool drained = stats_cv_.wait_until(lock, deadline, [this] {
-      return (stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0) || !running_;
-    }) && stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0;
+    auto drained_now = [this] { return stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0 && stats_.deferred == 0; };
+    const bool drained = stats_cv_.wait_until(lock, deadline, [&] { return drained_now() || !running_; }) && drained_now();
     if (!drained) return false;
   }
   // Every keyframe is acknowledged by the server; the points the server does not ack one by
@@ -143,6 +143,7 @@ void AgentComm::Run() {
 }
 
 void AgentComm::PackChanges() {
+  if (flush_requested_) packer_.FlushNext();
   const auto t0 = Clock::now();
   VoChanges changes = vo_->TakeChanges();
   const AgentBatch batch = packer_.Pack(changes, NowNs());
@@ -155,6 +156,7 @@ void AgentComm::PackChanges() {
   for (const MapPointPositionUpdate& u : batch.map_point_updates) mp_updates_.push_back(conv::ToMsg(u, batch.segment));
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.pack_ms_max = std::max(stats_.pack_ms_max, ms);
+  stats_.deferred = packer_.deferred();
   stats_.pack_ms_total += ms;
   ++stats_.packs;
 }

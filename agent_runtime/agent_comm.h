@@ -43,6 +43,7 @@ struct AgentCommStats {
   std::uint64_t server_msgs_rejected = 0;
   std::uint64_t server_keyframes_received = 0;
   std::uint64_t backlog_bytes = 0;     ///< packed but not written yet (rate limit)
+  std::uint64_t deferred = 0;          ///< keyframes and points held for new_keyframe_delay_s
   double pack_ms_max = 0.0;            ///< longest TakeChanges + Pack (the VO map's exposure)
   double pack_ms_total = 0.0;
   std::uint64_t packs = 0;
@@ -63,7 +64,8 @@ class AgentComm {
   void SetTrackingState(int state) { tracking_state_ = state; }
   /// True once every keyframe sent was acknowledged and nothing is waiting to be written.
   bool Drained() const;
-  /// Waits until Drained() or the timeout; returns Drained().
+  /// Sends what the keyframe delay holds, then waits until Drained() or the timeout;
+  /// returns Drained().
   bool WaitDrained(std::chrono::milliseconds timeout);
   std::vector<rt::TopicCountersSnapshot> Traffic() const { return session_->TrafficSnapshot(); }
   int matched_servers() const { return keyframe_writer_->matched(); }
@@ -111,6 +113,7 @@ class AgentComm {
   std::condition_variable stats_cv_;  // notified after every cycle (WaitDrained)
   AgentCommStats stats_;
   std::atomic<int> tracking_state_{0};
+  std::atomic<bool> flush_requested_{false};  ///< WaitDrained: pack everything, ignore the delay
   std::atomic<bool> running_{false};
   std::thread thread_;
 };

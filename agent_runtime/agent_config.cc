@@ -12,6 +12,7 @@ std::string AgentConfig::Validate() const {
   if (!(status_rate_hz > 0.0 && status_rate_hz <= 50.0)) return "status_rate_hz must be in (0, 50]";
   if (!(resend_holdoff_s >= 0.0)) return "resend_holdoff_s must be >= 0";
   if (!(ack_timeout_s > 0.0)) return "ack_timeout_s must be > 0";
+  if (!(new_keyframe_delay_s >= 0.0 && new_keyframe_delay_s <= 30.0)) return "new_keyframe_delay_s must be in [0, 30]";
   if (max_keyframes < 2) return "max_keyframes (N) must be >= 2";
   if (buffer_keyframes < 0) return "buffer_keyframes (B) must be >= 0";
   if (const std::string e = vo.Validate(); !e.empty()) return "vo: " + e;
@@ -54,6 +55,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("status_rate_hz", &config->status_rate_hz);
   r.Get("resend_holdoff_s", &config->resend_holdoff_s);
   r.Get("ack_timeout_s", &config->ack_timeout_s);
+  r.Get("new_keyframe_delay_s", &config->new_keyframe_delay_s);
   r.Get("max_keyframes", &config->max_keyframes);
   r.Get("buffer_keyframes", &config->buffer_keyframes);
   if (const YAML::Node vo_node = r.Child("vo"); vo_node && r.ok()) {

@@ -16,6 +16,7 @@ struct AgentConfig {
   double publish_rate_hz = 4.0;        // agent -> server messages per second (CCM-SLAM: 2-5 Hz)
   int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)
   bool map_sharing = true;             // integrate the keyframes the server sends back
+  double new_keyframe_delay_s = 1.5;   // a new KF leaves once this old (data time): KFs culled sooner never cost uplink
   double status_rate_hz = 1.0;         // AgentStatus heartbeat rate
   double resend_holdoff_s = 3.0;       // KF i acked, i-1 not: resend i-1 only if sent this long ago (>= the server's ack_repeats / publish_rate_hz: its ack may still come in a repeat)
   double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long

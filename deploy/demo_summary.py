@@ -16,6 +16,15 @@ def last_json_line(path):
     return json.loads(lines[-1]) if lines else None
 
 
+def flight_seconds(tum):
+    try:
+        with open(tum) as f:
+            stamps = [float(l.split()[0]) for l in f if l.strip() and not l.startswith("#")]
+    except OSError:
+        return 0.0
+    return stamps[-1] - stamps[0] if len(stamps) > 1 else 0.0
+
+
 def main():
     out, n = sys.argv[1], int(sys.argv[2])
     server = json.load(open(f"{out}/server/server.json"))
@@ -29,7 +38,8 @@ def main():
         traffic = a.get("traffic", {})
         up = sum(v for k, v in traffic.items() if k.endswith(":out"))
         down = sum(v for k, v in traffic.items() if k.endswith(":in"))
-        wall = a.get("wall_s", 0.0) or 1.0
+        # Per second of flight (data time; the demo plays at DEMO_RATE x real time).
+        wall = flight_seconds(f"{out}/agent{i}_ground_truth.tum") or a.get("wall_s", 0.0) or 1.0
         e = ate.get(f"agent{i}", {})
         agents.append({
             "agent": i,
@@ -69,7 +79,7 @@ def main():
           f"loops: {summary['loops']}, collaborative ATE: {summary['collaborative_ate_m']:.4f} m")
     for e in events:
         print(f"[demo]   {e['time_s']:7.1f} s  {e['kind']:8s} agent {e['agent']}: {e['detail']}")
-    print("[demo] agent  frames  KFs sent/acked/lost  up MB/s  down MB/s  ATE [m]")
+    print("[demo] agent  frames  KFs sent/acked/lost  up MB/s  down MB/s (per s of flight)  ATE [m]")
     for a in agents:
         ate_m = a["collaborative_ate_m"]
         print(f"[demo] {a['agent']:5d}  {a['frames']:6d}  {a['keyframes_sent']:4d}/{a['keyframes_acked']:4d}/"

@@ -98,16 +98,41 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
     segment_ = map.id();
     sent_kfs_.clear();
     sent_points_.clear();
+    deferred_kfs_.clear();
+    deferred_points_.clear();
   }
+  const bool flush = flush_;
+  flush_ = false;
   std::set<KeyframeId> kfs = changes.keyframes;
   kfs.insert(resend_.begin(), resend_.end());
+  kfs.insert(deferred_kfs_.begin(), deferred_kfs_.end());
+  deferred_kfs_.clear();
+  // Data time of the newest own keyframe: the age of a new keyframe for the send delay.
+  int64_t newest_ns = 0;
+  if (new_keyframe_delay_s_ > 0.0 && !flush) {
+    for (const auto& kf : map.keyframes()) {
+      if (kf->agent() == agent_) newest_ns = std::max(newest_ns, kf->stamp_ns());
+    }
+  }
+  const auto too_young = [&](const KeyFrame& kf) {
+    return newest_ns > 0 && static_cast<double>(newest_ns - kf.stamp_ns()) * 1e-9 < new_keyframe_delay_s_;
+  };
   // A resent keyframe goes with its own points in full: whatever kept the server from
   // acknowledging the keyframe (a dropped batch, a restarted server) may have lost them too.
   std::set<MapPointId> points = changes.map_points, resend_points;
+  points.insert(deferred_points_.begin(), deferred_points_.end());
+  deferred_points_.clear();
   for (const KeyframeId id : kfs) {
     if (id.agent() != agent_) continue;
     const bool full = resend_.count(id) || !sent_kfs_.count(id);
     if (full) {
+      if (!resend_.count(id)) {
+        const auto kf = map.keyframe(id);
+        if (kf && too_young(*kf)) {
+          deferred_kfs_.insert(id);
+          continue;
+        }
+      }
       if (auto d = PackKeyframe(map, id)) {
         if (resend_.count(id)) {
           for (const auto& link : d->point_links) {
@@ -135,6 +160,10 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
     auto d = PackMapPoint(map, id);
     if (!d) continue;
     auto sent = sent_points_.find(id);
+    if (sent == sent_points_.end() && d->reference_kf.agent() == agent_ && !sent_kfs_.count(d->reference_kf)) {
+      deferred_points_.insert(id);  // its reference keyframe has not left yet
+      continue;
+    }
     if (sent == sent_points_.end() || resend_points.count(id)) {
       sent_points_[id] = {d->reference_kf, d->position_ref};
       batch.map_points.push_back(std::move(*d));

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <optional>
+#include <set>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -29,8 +30,12 @@ class ChangePacker {
   /// than this fraction of its depth in the reference keyframe (or its reference changed).
   /// Local BA nudges every point of its window each time; most moves are far below what
   /// matters to the server, which refines the points itself, and were most of the uplink.
-  explicit ChangePacker(AgentId agent, double min_point_update_ratio = 0.01)
-      : agent_(agent), min_point_update_ratio_(min_point_update_ratio) {}
+  /// `new_keyframe_delay_s` (data time): a new keyframe leaves only once it is this old, so
+  /// the keyframes local mapping culls as redundant soon after creating them (40 % on hall3)
+  /// never cost uplink; points wait for their reference keyframe. FlushNext() sends
+  /// everything at the next Pack (end of a flight).
+  explicit ChangePacker(AgentId agent, double min_point_update_ratio = 0.01, double new_keyframe_delay_s = 0.0)
+      : agent_(agent), min_point_update_ratio_(min_point_update_ratio), new_keyframe_delay_s_(new_keyframe_delay_s) {}
 
   /// Everything changed in `changes.map` since the last call. Keyframes sorted by id.
   AgentBatch Pack(const VoChanges& changes, int64_t stamp_ns);
@@ -41,6 +46,10 @@ class ChangePacker {
   size_t keyframes_sent() const { return keyframes_sent_; }
   size_t map_points_sent() const { return points_sent_; }
   size_t point_updates_skipped() const { return point_updates_skipped_; }
+  /// Ignore the keyframe delay at the next Pack.
+  void FlushNext() { flush_ = true; }
+  /// Keyframes and points held back by the delay.
+  size_t deferred() const { return deferred_kfs_.size() + deferred_points_.size(); }
 
  private:
   void Forget(const Map& map);
@@ -51,6 +60,10 @@ class ChangePacker {
   };
   const AgentId agent_;
   const double min_point_update_ratio_;
+  const double new_keyframe_delay_s_;
+  std::set<KeyframeId> deferred_kfs_;
+  std::set<MapPointId> deferred_points_;
+  bool flush_ = false;
   std::unordered_set<KeyframeId> sent_kfs_;
   std::unordered_map<MapPointId, SentPoint> sent_points_;  ///< as the server last got them
   std::unordered_set<KeyframeId> resend_;

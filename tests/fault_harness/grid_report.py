@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """Table and plot of a fault-grid run (run_grid.sh): OUT/grid.md, OUT/grid.json, OUT/grid.png.
+Traffic is in MB per second of flight (the simulator's data time), whatever the playback rate.
 
 usage: grid_report.py OUT "1 2 3" "perfect delay loss20 loss50"
 """
@@ -18,6 +19,16 @@ def last_json_line(path):
         return json.loads(lines[-1]) if lines else None
     except OSError:
         return None
+
+
+def flight_seconds(tum):
+    stamps = []
+    with open(tum) as f:
+        for line in f:
+            v = line.split()
+            if v and not line.startswith("#"):
+                stamps.append(float(v[0]))
+    return stamps[-1] - stamps[0] if len(stamps) > 1 else 0.0
 
 
 def path_length(tum):
@@ -40,7 +51,10 @@ def cell(out, n, cond):
         if not j:
             row["complete"] = False
             continue
-        wall = j.get("wall_s") or 1.0
+        # Per second of flight (data time): the grid may play the flights slower than real
+        # time (GRID_RATE) so that the agents' VO keeps up on a small machine.
+        gt = f"{d}/gt{a}.tum"
+        wall = (flight_seconds(gt) if os.path.exists(gt) else 0.0) or j.get("wall_s") or 1.0
         t = j.get("traffic", {})
         ups.append(sum(v for k, v in t.items() if k.endswith(":out")) / wall / 1e6)
         downs.append(sum(v for k, v in t.items() if k.endswith(":in")) / wall / 1e6)

@@ -121,6 +121,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--threaded", a.replay.threaded, "agents and server stages on their own threads (not deterministic)");
   app.add_flag("--no-sharing", a.no_sharing, "do not send the server's neighbourhood back to the agents");
+  app.add_option("--keyframe-delay", a.replay.new_keyframe_delay_s,
+                 "a new keyframe is sent once this old, data time [s] (as ccm_agent)")->capture_default_str();
   app.add_flag("--no-redundancy", a.no_redundancy, "keep every keyframe (no redundancy removal)");
   app.add_option("--theta", a.replay.server.redundancy.theta, "redundancy threshold")->capture_default_str();
   app.add_flag("--no-final-ba", a.no_final_ba, "skip the global BA of every map at the end");

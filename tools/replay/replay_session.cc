@@ -59,7 +59,7 @@ class Session {
         return false;
       }
       a->vo = std::make_unique<AgentVo>(in.id, a->camera, o_.vo, &a->acks, /*synchronous_mapping=*/!o_.threaded);
-      a->packer = std::make_unique<ChangePacker>(in.id);
+      a->packer = std::make_unique<ChangePacker>(in.id, 0.01, o_.new_keyframe_delay_s);
       const int64_t n = in.source->size();
       total_ += o_.max_frames >= 0 && (n < 0 || n > o_.max_frames) ? o_.max_frames : std::max<int64_t>(n, 0);
       a->input = std::move(in);
@@ -80,7 +80,10 @@ class Session {
       Advance(a);
       MaybeProgress();
     }
-    for (auto& a : agents_) Exchange(a.get(), a->last_send_ns + 1);
+    for (auto& a : agents_) {
+      a->packer->FlushNext();  // the end of the flights: whatever the send delay still holds
+      Exchange(a.get(), a->last_send_ns + 1);
+    }
     backend_->ProcessAllQueued();
     if (o_.final_global_ba) {
       for (const MapSummary& m : backend_->Maps()) backend_->ScheduleGlobalBa(m.id);
@@ -184,6 +187,7 @@ class Session {
     a->vo->Stop();
     mapping.join();
     a->vo->DrainMapping();
+    a->packer->FlushNext();  // the end of the flight: whatever the send delay still holds
     Exchange(a, a->last_send_ns + 1);
     {
       std::lock_guard<std::mutex> lock(done_mutex_);
@@ -230,6 +234,7 @@ std::string ReplayOptions::Validate() const {
   if (auto e = vo.Validate(); !e.empty()) return "vo: " + e;
   if (auto e = server.Validate(); !e.empty()) return "server: " + e;
   if (!(send_period_s > 0.0)) return "send period must be > 0";
+  if (!(new_keyframe_delay_s >= 0.0)) return "keyframe delay must be >= 0";
   if (!(progress_period_s > 0.0)) return "progress period must be > 0";
   return "";
 }

@@ -30,6 +30,8 @@ struct ReplayOptions {
   VoOptions vo;
   ServerOptions server;
   double send_period_s = 0.25;   ///< agent -> server batches, data time (CCM-SLAM: 2-5 Hz)
+  /// New keyframes leave once this old (data time), as ccm_agent does (ChangePacker).
+  double new_keyframe_delay_s = 1.5;
   bool map_sharing = true;       ///< server -> agent: k covisible keyframes each send period
   bool threaded = false;         ///< false: one thread, deterministic
   int64_t max_frames = -1;       ///< per agent (-1: all)
