@@ -44,7 +44,7 @@ struct ServerMappingOptions {
   /// Forster et al.: a keyframe within this share of the scene depth of an existing one,
   /// looking the same way, whose points all have >= 2 other observers adds nothing: it is
   /// kept only as a pose anchor. 0 disables.
-  double duplicate_distance_ratio = 0.15;
+  double duplicate_distance_ratio = 0.10;
   double duplicate_max_angle_deg = 10.0;
   std::string Validate() const;
 };

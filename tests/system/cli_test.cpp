@@ -40,7 +40,7 @@ TEST(Cli, BadConfigsFailWithClearErrors) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("agent.yaml"), std::string::npos) << r.output;
 
-  r = RunCli({CCM_AGENT, "--qos", "/nonexistent/qos.xml", "--duration", "1"});
+  r = RunCli({CCM_AGENT, "--qos", "/nonexistent/qos.xml", "--sim", "hall3", "--max-frames", "1"});
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("does not exist"), std::string::npos) << r.output;
 
