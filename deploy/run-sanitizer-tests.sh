@@ -5,6 +5,11 @@
 # server messages through conversion and a server back-end. Any sanitizer finding fails the
 # job (halt_on_error). Takes ~20 min on 2 cores from scratch (ccache helps later runs); kept
 # out of the main CI run, which must stay under 30 min.
+# Status (2026-11-23): the 27 size, conversion and rejection tests run clean; the fuzz test
+# aborts in its set-up, inside Debian's libopengv (relative_pose::fivept_stewenius frees a
+# block it did not allocate: "bad-free", reached from the VO's two-view initialization that
+# makes the base messages), before any mutated message is converted. Open: the fuzz test
+# needs base messages that do not go through OpenGV under ASan, or an OpenGV fix.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build-asan}"
