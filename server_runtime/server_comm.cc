@@ -25,6 +25,19 @@ constexpr std::chrono::milliseconds kMaxKeyframeHold(1500);
 constexpr std::chrono::seconds kSeenWindow(120);
 constexpr size_t kMaxEarlyUpdates = 65536;  // per agent and kind; beyond: the oldest go
 
+// A pose update that reached the server before (or while holding) its full keyframe.
+void ApplyPoseUpdate(const KeyframePoseUpdate& u, KeyframeData* kf) {
+  kf->predecessor = u.predecessor;
+  kf->pred_from_cam = u.pred_from_cam;
+  kf->parent = u.parent;
+  kf->parent_from_cam = u.parent_from_cam;
+}
+
+std::string VersionMismatch(const char* what, uint16_t version) {
+  return std::string(what) + ": protocol version " + std::to_string(version) + ", expected " +
+         std::to_string(msg::kProtocolVersion);
+}
+
 // Agent ids are 16 bits on the wire; 0 is never a valid agent.
 bool ValidAgentId(uint16_t id) { return id != 0; }
 
@@ -146,8 +159,7 @@ bool ServerComm::Intake() {
     const AgentId agent = st->agent_id();
     if (!ValidAgentId(agent)) continue;
     if (st->protocol_version() != msg::kProtocolVersion) {
-      Reject(agent, "status: protocol version " + std::to_string(st->protocol_version()) + ", expected " +
-                        std::to_string(msg::kProtocolVersion));
+      Reject(agent, VersionMismatch("status", st->protocol_version()));
       continue;
     }
     const KeyframeId ref(st->ref_kf_id());
@@ -185,13 +197,10 @@ bool ServerComm::Intake() {
       Reject(agent, error);
       continue;
     }
-    seen_keyframes_[agent].Note(d->id.packed(), d->id.counter(), Clock::now());
+    seen_keyframes_[agent].Note(d->id.packed(), Clock::now());
     auto& early = early_[agent].keyframes;
     if (auto it = early.find(d->id.packed()); it != early.end()) {
-      d->predecessor = it->second.predecessor;
-      d->pred_from_cam = it->second.pred_from_cam;
-      d->parent = it->second.parent;
-      d->parent_from_cam = it->second.parent_from_cam;
+      ApplyPoseUpdate(it->second, &*d);
       early.erase(it);
     }
     const MapId segment = d->segment;
@@ -208,8 +217,7 @@ bool ServerComm::Intake() {
     const AgentId agent = m->agent_id();
     if (!ValidAgentId(agent) || !Admit(agent, "map points")) continue;
     if (m->protocol_version() != msg::kProtocolVersion) {
-      Reject(agent, "map point batch: protocol version " + std::to_string(m->protocol_version()) + ", expected " +
-                        std::to_string(msg::kProtocolVersion));
+      Reject(agent, VersionMismatch("map point batch", m->protocol_version()));
       continue;
     }
     int64_t accepted = 0;
@@ -219,7 +227,7 @@ bool ServerComm::Intake() {
         Reject(agent, p.agent_id() == agent ? error : "map point: agent id differs from its batch's");
         continue;
       }
-      seen_points_[agent].Note(d->id.packed(), d->id.counter(), Clock::now());
+      seen_points_[agent].Note(d->id.packed(), Clock::now());
       auto& early = early_[agent].points;
       if (auto it = early.find(d->id.packed()); it != early.end()) {
         d->reference_kf = it->second.reference_kf;
@@ -261,8 +269,7 @@ bool ServerComm::Intake() {
     const AgentId agent = m->agent_id();
     if (!ValidAgentId(agent) || !Admit(agent, "map point updates")) continue;
     if (m->protocol_version() != msg::kProtocolVersion) {
-      Reject(agent, "map point update batch: protocol version " + std::to_string(m->protocol_version()) +
-                        ", expected " + std::to_string(msg::kProtocolVersion));
+      Reject(agent, VersionMismatch("map point update batch", m->protocol_version()));
       continue;
     }
     int64_t accepted = 0;
@@ -294,11 +301,10 @@ bool ServerComm::Intake() {
   return got || data;
 }
 
-void ServerComm::SeenIds::Note(uint64_t packed, uint64_t counter, Clock::time_point now) {
-  (void)counter;
+void ServerComm::SeenIds::Note(uint64_t packed, Clock::time_point now) {
   if (ids.insert(packed).second) order.emplace_back(now, packed);
   while (!order.empty() && now - order.front().first > kSeenWindow) {
-    pruned_below = std::max(pruned_below, (order.front().second & ((uint64_t{1} << 48) - 1)) + 1);
+    pruned_below = std::max(pruned_below, MapPointId(order.front().second).counter() + 1);  // same layout for every id kind
     ids.erase(order.front().second);
     order.pop_front();
   }
@@ -307,10 +313,7 @@ void ServerComm::SeenIds::Note(uint64_t packed, uint64_t counter, Clock::time_po
 bool ServerComm::ApplyToHeld(AgentId agent, const KeyframePoseUpdate& u) {
   for (HeldKeyframe& h : held_[agent]) {
     if (h.data.id != u.id) continue;
-    h.data.predecessor = u.predecessor;
-    h.data.pred_from_cam = u.pred_from_cam;
-    h.data.parent = u.parent;
-    h.data.parent_from_cam = u.parent_from_cam;
+    ApplyPoseUpdate(u, &h.data);
     return true;
   }
   return false;

@@ -109,7 +109,7 @@ class ServerComm {
     std::unordered_set<uint64_t> ids;
     std::deque<std::pair<std::chrono::steady_clock::time_point, uint64_t>> order;
     uint64_t pruned_below = 0;
-    void Note(uint64_t packed, uint64_t counter, std::chrono::steady_clock::time_point now);
+    void Note(uint64_t packed, std::chrono::steady_clock::time_point now);
     bool Seen(uint64_t packed, uint64_t counter) const { return counter < pruned_below || ids.count(packed) > 0; }
   };
   /// Updates that overtook their full keyframe or point: the BEST_EFFORT update stream has no
