@@ -28,8 +28,14 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("init_features", &vo->init_num_features);
   r.Get("init_min_homography_ratio", &vo->init_min_homography_ratio);
   r.Get("init_min_parallax_deg", &vo->init_min_parallax_deg);
-  r.Get("kf_min_frames", &vo->kf_min_frames);
-  r.Get("kf_max_frames", &vo->kf_max_frames);
+  r.Get("kf_min_frames", &vo->keyframe.min_frames);
+  r.Get("kf_max_frames", &vo->keyframe.max_frames);
+  r.Get("kf_tracked_ratio", &vo->keyframe.tracked_ratio);
+  r.Get("kf_urgent_ratio", &vo->keyframe.urgent_ratio);
+  r.Get("kf_urgent_inliers", &vo->keyframe.urgent_inliers);
+  r.Get("kf_coverage_ratio", &vo->keyframe.coverage_ratio);
+  r.Get("kf_baseline_depth_ratio", &vo->keyframe.baseline_depth_ratio);
+  r.Get("kf_max_interval_s", &vo->keyframe.max_interval_s);
   r.Get("local_ba_window", &vo->local_ba_window);
   r.Get("triangulation_neighbours", &vo->triangulation_neighbours);
   r.Get("lost_frames_before_new_segment", &vo->lost_frames_before_new_segment);

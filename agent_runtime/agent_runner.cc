@@ -234,6 +234,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
                             {"tracked", tracked},
                             {"keyframes_created", s.keyframes_created},
                             {"keyframes_in_map", s.keyframes_in_map},
+                            {"keyframes_culled", s.mapping.keyframes_culled},
                             {"map_points_in_map", s.map_points_in_map},
                             {"keyframes_lost", s.trim.removed_lost},
                             {"segments", s.segments},
@@ -243,6 +244,11 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
                             {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},
                             {"mapping_ms_p95", Percentile(s.mapping_ms, 0.95)},
                             {"wall_s", wall_s}};
+  nlohmann::json reasons = nlohmann::json::object();
+  for (size_t k = 1; k < s.keyframe_reasons.size(); ++k) {
+    reasons[KeyframeReasonName(static_cast<KeyframeReason>(k))] = s.keyframe_reasons[k];
+  }
+  summary["keyframe_reasons"] = reasons;
   if (comm) {
     const AgentCommStats c = comm->Stats();
     summary["link"] = {{"kfs_sent", c.kfs_sent},

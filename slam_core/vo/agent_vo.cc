@@ -58,6 +58,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     ++stats_.frames;
     stats_.frames_tracked += r.world_from_cam.has_value();
     stats_.keyframes_created += r.new_keyframe;
+    stats_.keyframe_reasons = tracker_.keyframe_reasons();
     stats_.segments = tracker_.segments_started() + 1;
     AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }

@@ -10,6 +10,8 @@
 // data); stats_mutex_ is a leaf.
 #pragma once
 
+#include <array>
+
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -34,6 +36,7 @@ struct AgentVoStats {
   int64_t frames = 0;
   int64_t frames_tracked = 0;
   int64_t keyframes_created = 0;
+  std::array<int64_t, 6> keyframe_reasons{};  ///< per KeyframeReason (why each was made)
   int segments = 0;
   size_t keyframes_in_map = 0;
   size_t map_points_in_map = 0;

@@ -1,6 +1,7 @@
 #include "slam_core/vo/tracker.h"
 
 #include <algorithm>
+#include <array>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -29,6 +30,10 @@ TrackingResult Tracker::Track(VoFrame frame) {
       frame.world_from_cam = init->kf2->world_from_cam();
       frame.map_points = init->cur_matches;
       OnInitialized(*init);
+      reference_coverage_ = ImageCoverage(frame);
+      reference_median_depth_ = MedianDepth(frame);
+      last_kf_frame_index_ = frame.index;
+      last_kf_stamp_ns_ = frame.stamp_ns;
       result.world_from_cam = frame.world_from_cam;
       result.inliers = frame.NumMatched();
       result.new_keyframe = true;
@@ -49,7 +54,7 @@ TrackingResult Tracker::Track(VoFrame frame) {
   int inliers = 0;
   if (ok) {
     inliers = TrackLocalMap(&frame);
-    const bool recently_relocalized = frame.index - last_reloc_frame_index_ < shared_->options.kf_max_frames;
+    const bool recently_relocalized = frame.index - last_reloc_frame_index_ < shared_->options.keyframe.max_frames;
     const int needed = recently_relocalized ? shared_->options.min_inliers_after_reloc
                                             : shared_->options.min_inliers_local_map;
     ok = inliers >= needed;
@@ -60,7 +65,8 @@ TrackingResult Tracker::Track(VoFrame frame) {
     if (last_frame_) velocity_ = frame.cam_from_world() * last_frame_->world_from_cam;
     result.world_from_cam = frame.world_from_cam;
     result.inliers = inliers;
-    if (NeedNewKeyframe(frame, inliers)) {
+    if (const KeyframeReason why = NeedNewKeyframe(frame, inliers); why != KeyframeReason::kNone) {
+      ++keyframe_reasons_[static_cast<int>(why)];
       CreateKeyframe(frame);
       result.new_keyframe = true;
     }
@@ -221,6 +227,8 @@ std::vector<std::shared_ptr<KeyFrame>> Tracker::LocalKeyframes(const VoFrame& f)
   for (const auto& [n, id] : ranked) take(id);
   if (out.empty() && reference_kf_) take(reference_kf_->id());
   const size_t direct = out.size();
+  // The server's neighbourhood (other agents' keyframes near ours) before our second ring.
+  for (const KeyframeId id : shared_->neighbourhood.Get()) take(id);
   for (size_t k = 0; k < direct && out.size() < cap; ++k) {
     for (const KeyframeId n : out[k]->BestCovisible(10)) take(n);
   }
@@ -249,13 +257,52 @@ int Tracker::TrackLocalMap(VoFrame* f) {
   return inliers;
 }
 
-bool Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
-  const VoOptions& o = shared_->options;
-  const int64_t since = f.index - last_kf_frame_index_;
-  const bool max_passed = since >= o.kf_max_frames;
-  const bool min_passed_idle = since >= o.kf_min_frames && mapper_idle_();
-  // Points of the reference keyframe seen by enough keyframes (ORB-SLAM: 2 while the map
-  // has two keyframes, else 3); until mapping processed it, the count at creation.
+double Tracker::ImageCoverage(const VoFrame& f) const {
+  // Coarse grid (8 x 6 cells): share of the cells holding a keypoint that also hold a
+  // tracked point. Cells without any keypoint (sky, blank wall) do not count against it.
+  constexpr int kCols = 8, kRows = 6;
+  const double cw = static_cast<double>(shared_->camera->width()) / kCols;
+  const double ch = static_cast<double>(shared_->camera->height()) / kRows;
+  std::array<uint8_t, kCols * kRows> cell{};  // bit 0: keypoint, bit 1: tracked point
+  for (size_t i = 0; i < f.size(); ++i) {
+    const Keypoint& kp = f.features->keypoints[i];
+    const int cx = std::clamp(static_cast<int>(kp.u / cw), 0, kCols - 1);
+    const int cy = std::clamp(static_cast<int>(kp.v / ch), 0, kRows - 1);
+    cell[cy * kCols + cx] |= (f.map_points[i] && !f.outlier[i]) ? 3 : 1;
+  }
+  int with_keypoint = 0, with_tracked = 0;
+  for (const uint8_t c : cell) {
+    with_keypoint += (c & 1) != 0;
+    with_tracked += (c & 2) != 0;
+  }
+  return with_keypoint > 0 ? static_cast<double>(with_tracked) / with_keypoint : 0.0;
+}
+
+double Tracker::MedianDepth(const VoFrame& f) const {
+  std::vector<double> depths;
+  const SE3 cam_from_world = f.cam_from_world();
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (!f.map_points[i] || f.outlier[i]) continue;
+    const double z = (cam_from_world * f.map_points[i]->position()).z();
+    if (z > 0) depths.push_back(z);
+  }
+  if (depths.empty()) return 0.0;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  return depths[depths.size() / 2];
+}
+
+double Tracker::BaselineOverDepth(const VoFrame& f) const {
+  if (!reference_kf_ || reference_median_depth_ <= 0) return 0.0;
+  const double baseline = (f.world_from_cam.translation() - reference_kf_->world_from_cam().translation()).norm();
+  return baseline / reference_median_depth_;
+}
+
+KeyframeReason Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
+  // ORB-SLAM's measure: all tracked points against the reference keyframe's points seen by
+  // enough keyframes (2 while the map has two keyframes, else 3); until mapping processed
+  // the reference, the count at creation. A measure of the overlap with the reference alone
+  // (its points tracked / its best overlap since) was tried: it made 2-3x fewer keyframes
+  // but doubled hall3's ATE (docs/vo.md, keyframe economy).
   int ref_points = reference_tracked_;
   if (reference_kf_ && map_->keyframe(reference_kf_->id())) {
     const int min_obs = map_->num_keyframes() <= 2 ? 2 : 3;
@@ -267,8 +314,16 @@ bool Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
     }
     ref_points = n;
   }
-  const bool few_tracked = inliers < o.kf_tracked_ratio * ref_points;
-  return (max_passed || min_passed_idle) && few_tracked && inliers > o.kf_min_inliers;
+  KeyframeDecisionInput in;
+  in.frames_since_kf = f.index - last_kf_frame_index_;
+  in.seconds_since_kf = 1e-9 * static_cast<double>(f.stamp_ns - last_kf_stamp_ns_);
+  in.inliers = inliers;
+  in.reference_points = ref_points;
+  in.coverage = ImageCoverage(f);
+  in.reference_coverage = reference_coverage_;
+  in.baseline_over_depth = BaselineOverDepth(f);
+  in.mapper_idle = mapper_idle_();
+  return DecideKeyframe(shared_->options.keyframe, in);
 }
 
 void Tracker::CreateKeyframe(const VoFrame& f) {
@@ -280,7 +335,10 @@ void Tracker::CreateKeyframe(const VoFrame& f) {
   }
   reference_kf_ = kf;
   reference_tracked_ = f.NumMatched();
+  reference_coverage_ = ImageCoverage(f);
+  reference_median_depth_ = MedianDepth(f);
   last_kf_frame_index_ = f.index;
+  last_kf_stamp_ns_ = f.stamp_ns;
   sink_(std::move(job));
 }
 

@@ -5,6 +5,7 @@
 // mapper through the sink given at construction.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -48,6 +49,8 @@ class Tracker {
   const std::shared_ptr<KeyFrame>& reference_keyframe() const { return reference_kf_; }
   int segments_started() const { return segments_started_; }
   int resets() const { return resets_; }
+  /// Keyframes made per KeyframeReason (index = enum value).
+  const std::array<int64_t, 6>& keyframe_reasons() const { return keyframe_reasons_; }
 
  private:
   bool TrackWithMotionModel(VoFrame* f);
@@ -55,7 +58,10 @@ class Tracker {
   bool Relocalize(VoFrame* f);
   int TrackLocalMap(VoFrame* f);
   int OptimizeFramePose(VoFrame* f);
-  bool NeedNewKeyframe(const VoFrame& f, int inliers) const;
+  KeyframeReason NeedNewKeyframe(const VoFrame& f, int inliers) const;
+  double ImageCoverage(const VoFrame& f) const;
+  double MedianDepth(const VoFrame& f) const;
+  double BaselineOverDepth(const VoFrame& f) const;
   void CreateKeyframe(const VoFrame& f);
   void StartNewSegment();
   void ResetToInitialization();
@@ -72,10 +78,14 @@ class Tracker {
   std::optional<SE3> velocity_;  ///< cam_from_world(k) * world_from_cam(k-1)
   std::shared_ptr<KeyFrame> reference_kf_;
   int reference_tracked_ = 0;      ///< points the reference keyframe tracked when created
+  double reference_coverage_ = 0;  ///< its image coverage (ImageCoverage) when created
+  double reference_median_depth_ = 0;  ///< median depth of its tracked points when created
   int64_t last_kf_frame_index_ = 0;
+  int64_t last_kf_stamp_ns_ = 0;
   int64_t last_reloc_frame_index_ = -1000;
   int lost_frames_ = 0;
   int segments_started_ = 0;
+  std::array<int64_t, 6> keyframe_reasons_{};
   int resets_ = 0;  ///< initializations discarded because tracking failed right after
 };
 

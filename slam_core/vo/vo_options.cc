@@ -21,10 +21,7 @@ std::string VoOptions::Validate() const {
   if (projection_radius_px <= 0 || local_map_radius_px <= 0) return "search radii must be > 0";
   if (min_inliers_frame < 3) return "min_inliers_frame must be >= 3";
   if (min_inliers_local_map < min_inliers_frame) return "min_inliers_local_map must be >= min_inliers_frame";
-  if (kf_max_frames < 1 || kf_min_frames < 0 || kf_min_frames > kf_max_frames) {
-    return "need 0 <= kf_min_frames <= kf_max_frames and kf_max_frames >= 1";
-  }
-  if (kf_tracked_ratio <= 0 || kf_tracked_ratio > 1) return "kf_tracked_ratio must be in (0, 1]";
+  if (auto e = keyframe.Validate(); !e.empty()) return e;
   if (local_ba_window < 2) return "local_ba_window must be >= 2";
   if (local_ba_max_fixed < 1) return "local_ba_max_fixed must be >= 1";
   if (redundant_kf_ratio <= 0 || redundant_kf_ratio > 1) return "redundant_kf_ratio must be in (0, 1]";

@@ -6,6 +6,7 @@
 
 #include "slam_core/feature/orb_extractor.h"
 #include "slam_core/map/map.h"
+#include "slam_core/vo/keyframe_decision.h"
 #include "slam_core/vo/local_map_bound.h"
 
 namespace ccm {
@@ -46,11 +47,8 @@ struct VoOptions {
   int local_map_max_keyframes = 80;    ///< cap on keyframes whose points are tracked
   double min_view_cos = 0.5;           ///< points seen at > 60 deg from their mean normal skipped
 
-  // Keyframe decision.
-  int kf_min_frames = 0;               ///< frames since last KF before a new one may be made
-  int kf_max_frames = 20;              ///< a KF is forced after this many frames (= fps)
-  double kf_tracked_ratio = 0.9;       ///< new KF when tracked < ratio * reference KF's points
-  int kf_min_inliers = 15;
+  /// Keyframe decision (vo/keyframe_decision.h; YAML keys kf_*).
+  KeyframeDecisionOptions keyframe;
 
   // Relocalization / new map segment.
   int reloc_min_matches = 30;

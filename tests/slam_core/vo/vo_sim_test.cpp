@@ -40,7 +40,7 @@ TEST_F(VoOnHall3, LocalMapStaysBoundedWithoutAcknowledgements) {
   VoOptions options;
   options.bound.max_keyframes = 10;
   options.bound.max_unacked_buffer = 10;
-  options.kf_max_frames = 5;  // many keyframes so that the bound is exercised
+  options.keyframe.max_frames = 5;  // many keyframes so that the bound is exercised
   options.max_pending_changes = 3000;
   AckNone none;
   const testing::VoSimRun run = testing::RunVoOnSim(sim_, 1, 300, options, none);

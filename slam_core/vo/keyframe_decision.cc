@@ -1,0 +1,48 @@
+#include "slam_core/vo/keyframe_decision.h"
+
+namespace ccm {
+
+std::string KeyframeDecisionOptions::Validate() const {
+  if (max_frames < 1 || min_frames < 0 || min_frames > max_frames) {
+    return "need 0 <= kf_min_frames <= kf_max_frames and kf_max_frames >= 1";
+  }
+  if (tracked_ratio <= 0 || tracked_ratio > 1) return "kf_tracked_ratio must be in (0, 1]";
+  if (urgent_ratio < 0 || urgent_ratio > tracked_ratio) return "kf_urgent_ratio must be in [0, kf_tracked_ratio]";
+  if (urgent_inliers < 0) return "kf_urgent_inliers must be >= 0";
+  if (coverage_ratio < 0 || coverage_ratio > 1) return "kf_coverage_ratio must be in [0, 1]";
+  if (baseline_depth_ratio < 0) return "kf_baseline_depth_ratio must be >= 0";
+  if (max_interval_s < 0) return "kf_max_interval_s must be >= 0";
+  if (min_inliers < 0) return "kf_min_inliers must be >= 0";
+  return "";
+}
+
+const char* KeyframeReasonName(KeyframeReason reason) {
+  switch (reason) {
+    case KeyframeReason::kNone: return "none";
+    case KeyframeReason::kTrackedRatio: return "tracked-ratio";
+    case KeyframeReason::kCoverage: return "coverage";
+    case KeyframeReason::kBaseline: return "baseline";
+    case KeyframeReason::kInterval: return "interval";
+    case KeyframeReason::kUrgent: return "urgent";
+  }
+  return "?";
+}
+
+KeyframeReason DecideKeyframe(const KeyframeDecisionOptions& o, const KeyframeDecisionInput& in) {
+  if (in.inliers <= o.min_inliers || in.frames_since_kf < 1) return KeyframeReason::kNone;
+  const double ratio = in.reference_points > 0 ? static_cast<double>(in.inliers) / in.reference_points : 0.0;
+  // About to lose the map: new points now, whatever mapping is doing.
+  if (ratio < o.urgent_ratio || in.inliers < o.urgent_inliers) return KeyframeReason::kUrgent;
+  if (in.frames_since_kf < o.min_frames) return KeyframeReason::kNone;
+  if (!in.mapper_idle && in.frames_since_kf < o.max_frames) return KeyframeReason::kNone;
+  if (ratio < o.tracked_ratio) return KeyframeReason::kTrackedRatio;
+  if (o.coverage_ratio > 0 && in.reference_coverage > 0 && in.coverage < o.coverage_ratio * in.reference_coverage) {
+    return KeyframeReason::kCoverage;
+  }
+  if (o.baseline_depth_ratio > 0 && in.baseline_over_depth > o.baseline_depth_ratio) return KeyframeReason::kBaseline;
+  // Something changed (a few points lost) and it has been long: keep the map fresh.
+  if (o.max_interval_s > 0 && in.seconds_since_kf > o.max_interval_s && ratio < 0.98) return KeyframeReason::kInterval;
+  return KeyframeReason::kNone;
+}
+
+}  // namespace ccm

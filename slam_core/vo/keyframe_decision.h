@@ -1,0 +1,51 @@
+// Keyframe decision: a new keyframe when the map needs one, not by habit. Every keyframe
+// costs mapping time and ~40-60 kB on the link, so the tracker asks for one only when
+//  * the frame tracks clearly fewer points than the reference keyframe has (tracked ratio),
+//  * tracked points cover clearly less of the image than at the reference keyframe
+//    (new image area without map points: turning, or points leaving at the border),
+//  * the camera moved far enough from the reference keyframe for well-conditioned new
+//    points (baseline / median scene depth), or
+//  * it has been long since the last keyframe and the view changed at all;
+// and only when local mapping can take it (idle, or it waited kf_max_frames), except when
+// tracking is about to break (urgent: few points left), where a keyframe comes at once.
+// Pure: the tracker measures, this decides (unit-testable without images).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace ccm {
+
+struct KeyframeDecisionOptions {
+  int min_frames = 0;            ///< frames since the last KF before a non-urgent one
+  int max_frames = 20;           ///< after this many frames a KF may interrupt busy mapping
+  double tracked_ratio = 0.9;    ///< need a KF when tracking fewer points than this share of the reference's
+  double urgent_ratio = 0.0;     ///< below this share: a KF at once, mapping busy or not (0: off)
+  int urgent_inliers = 0;        ///< ... or below this many tracked points (0: off)
+  double coverage_ratio = 0.0;   ///< need a KF below this share of the reference KF's image coverage (0: off)
+  double baseline_depth_ratio = 0.0;  ///< need a KF above this baseline / median depth (0: off)
+  double max_interval_s = 0.0;   ///< need a KF after this long if anything changed (0: off)
+  int min_inliers = 15;          ///< never a KF from a frame tracking fewer points
+
+  std::string Validate() const;
+};
+
+/// What the tracker measured on the current frame.
+struct KeyframeDecisionInput {
+  int64_t frames_since_kf = 0;
+  double seconds_since_kf = 0;
+  int inliers = 0;              ///< tracked points of the frame
+  int reference_points = 0;     ///< the reference KF's points seen by >= 3 KFs (ORB-SLAM)
+  double coverage = 0;          ///< share of image cells with a tracked point, of cells with a keypoint
+  double reference_coverage = 0;  ///< the same, measured when the reference KF was made
+  double baseline_over_depth = 0;  ///< distance to the reference KF / its median point depth
+  bool mapper_idle = true;
+};
+
+enum class KeyframeReason { kNone, kTrackedRatio, kCoverage, kBaseline, kInterval, kUrgent };
+const char* KeyframeReasonName(KeyframeReason reason);
+
+/// kNone: no keyframe for this frame; else why one is made.
+KeyframeReason DecideKeyframe(const KeyframeDecisionOptions& options, const KeyframeDecisionInput& in);
+
+}  // namespace ccm

@@ -1,0 +1,121 @@
+// The keyframe decision on measured inputs (no images): each criterion fires on its own,
+// busy mapping defers all but urgent keyframes, and nothing fires on a steady view.
+#include <gtest/gtest.h>
+
+#include "slam_core/vo/keyframe_decision.h"
+
+namespace ccm {
+namespace {
+
+KeyframeDecisionInput Steady() {
+  KeyframeDecisionInput in;
+  in.frames_since_kf = 5;
+  in.seconds_since_kf = 0.25;
+  in.inliers = 290;
+  in.reference_points = 300;
+  in.coverage = 0.9;
+  in.reference_coverage = 0.9;
+  in.baseline_over_depth = 0.01;
+  in.mapper_idle = true;
+  return in;
+}
+
+KeyframeDecisionOptions AllOn() {
+  KeyframeDecisionOptions o;
+  o.coverage_ratio = 0.8;
+  o.baseline_depth_ratio = 0.1;
+  o.max_interval_s = 2.0;
+  o.urgent_ratio = 0.3;
+  o.urgent_inliers = 60;
+  return o;
+}
+
+TEST(KeyframeDecision, SteadyViewNeedsNoKeyframe) {
+  EXPECT_EQ(DecideKeyframe(AllOn(), Steady()), KeyframeReason::kNone);
+  EXPECT_EQ(DecideKeyframe(KeyframeDecisionOptions{}, Steady()), KeyframeReason::kNone);
+}
+
+TEST(KeyframeDecision, EachCriterionFiresOnItsOwn) {
+  const KeyframeDecisionOptions o = AllOn();
+  KeyframeDecisionInput in = Steady();
+  in.inliers = 170;  // 57 % of the reference's points, below 0.9
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTrackedRatio);
+  in = Steady();
+  in.coverage = 0.6;  // 0.6 < 0.8 * 0.9
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kCoverage);
+  in = Steady();
+  in.baseline_over_depth = 0.12;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kBaseline);
+  in = Steady();
+  in.seconds_since_kf = 2.5;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kInterval);
+  in.inliers = in.reference_points;  // nothing changed at all: hovering
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+}
+
+TEST(KeyframeDecision, OptionalCriteriaAreOffByDefault) {
+  KeyframeDecisionInput in = Steady();
+  in.coverage = 0.1;
+  in.baseline_over_depth = 5.0;
+  in.seconds_since_kf = 100.0;
+  EXPECT_EQ(DecideKeyframe(KeyframeDecisionOptions{}, in), KeyframeReason::kNone);
+  in.reference_points = 32;
+  in.inliers = 30;  // few, but 94 % of the reference's: urgent keyframes are off too
+  EXPECT_EQ(DecideKeyframe(KeyframeDecisionOptions{}, in), KeyframeReason::kNone);
+}
+
+TEST(KeyframeDecision, BusyMappingDefersAllButUrgentKeyframes) {
+  const KeyframeDecisionOptions o = AllOn();
+  KeyframeDecisionInput in = Steady();
+  in.mapper_idle = false;
+  in.inliers = 150;  // 50 %: needed, not urgent
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+  in.frames_since_kf = o.max_frames;  // waited long enough: interrupt mapping
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTrackedRatio);
+  in.frames_since_kf = 1;
+  in.inliers = 61;  // 20 %: about to lose the map
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kUrgent);
+  in = Steady();
+  in.mapper_idle = false;
+  in.reference_points = 45;
+  in.inliers = 44;  // few points in absolute terms, though most of the reference's
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kUrgent);
+}
+
+TEST(KeyframeDecision, NeverFromAFrameTrackingTooLittleOrTheKeyframeItself) {
+  const KeyframeDecisionOptions o = AllOn();
+  KeyframeDecisionInput in = Steady();
+  in.inliers = o.min_inliers;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+  in = Steady();
+  in.frames_since_kf = 0;
+  in.inliers = 100;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+}
+
+TEST(KeyframeDecision, MinFramesHoldsBackNonUrgentKeyframes) {
+  KeyframeDecisionOptions o = AllOn();
+  o.min_frames = 3;
+  KeyframeDecisionInput in = Steady();
+  in.frames_since_kf = 2;
+  in.inliers = 150;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+  in.frames_since_kf = 3;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTrackedRatio);
+}
+
+TEST(KeyframeDecision, ValidateRejectsInconsistentOptions) {
+  EXPECT_EQ(KeyframeDecisionOptions{}.Validate(), "");
+  KeyframeDecisionOptions o;
+  o.urgent_ratio = 0.95;  // above the tracked ratio
+  EXPECT_NE(o.Validate(), "");
+  o = {};
+  o.min_frames = 30;  // above max_frames
+  EXPECT_NE(o.Validate(), "");
+  o = {};
+  o.coverage_ratio = 1.5;
+  EXPECT_NE(o.Validate(), "");
+}
+
+}  // namespace
+}  // namespace ccm
