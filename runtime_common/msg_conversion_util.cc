@@ -147,6 +147,23 @@ OrbDescriptor DescriptorFromMsg(const msg::OrbDescriptor& m) {
   return d;
 }
 
+namespace {
+
+// Fixed-point keypoint fields (idl Keypoint). Positions a hair outside the image (ORB keeps
+// keypoints up to half a pixel out) clamp to its border.
+std::uint16_t EighthPx(float px) {
+  if (!std::isfinite(px)) return 0;
+  return static_cast<std::uint16_t>(std::lround(std::clamp(px, 0.0f, 8191.875f) * 8.0f));
+}
+
+std::uint8_t Angle256(float deg) {
+  if (!std::isfinite(deg)) return 0;
+  const double turns = deg / 360.0 - std::floor(deg / 360.0);  // [0, 1)
+  return static_cast<std::uint8_t>(static_cast<int>(std::lround(turns * 256.0)) & 0xFF);
+}
+
+}  // namespace
+
 void FeaturesToMsg(const FrameFeatures& f, size_t count, std::vector<msg::Keypoint>* keypoints,
                    std::vector<msg::OrbDescriptor>* descriptors) {
   count = std::min({count, f.keypoints.size(), f.descriptors.size()});
@@ -155,7 +172,9 @@ void FeaturesToMsg(const FrameFeatures& f, size_t count, std::vector<msg::Keypoi
   for (size_t i = 0; i < count; ++i) {
     const Keypoint& k = f.keypoints[i];
     msg::Keypoint& m = (*keypoints)[i];
-    m.x_px(k.u); m.y_px(k.v); m.angle_deg(k.angle_deg); m.response(k.response);
+    m.x_eighth_px(EighthPx(k.u));
+    m.y_eighth_px(EighthPx(k.v));
+    m.angle_256(Angle256(k.angle_deg));
     m.octave(static_cast<std::uint8_t>(std::clamp(k.level, 0, 255)));
     (*descriptors)[i] = DescriptorToMsg(f.descriptors[i]);
   }
@@ -174,18 +193,13 @@ std::string FeaturesFromMsg(const std::vector<msg::Keypoint>& keypoints,
   f->descriptors.resize(descriptors.size());
   for (size_t i = 0; i < keypoints.size(); ++i) {
     const msg::Keypoint& m = keypoints[i];
-    if (!std::isfinite(m.x_px()) || !std::isfinite(m.y_px()) || !std::isfinite(m.angle_deg()) ||
-        !std::isfinite(m.response())) {
-      return "keypoint " + Str(i) + ": non-finite value";
-    }
-    // The exchange validator's image bounds (a keypoint may sit half a pixel outside).
-    if (m.x_px() < -1.0f || m.y_px() < -1.0f || m.x_px() > w || m.y_px() > h) return "keypoint " + Str(i) + " outside the image";
-    if (std::abs(m.angle_deg()) > 360.0f) return "keypoint " + Str(i) + ": angle beyond 360 deg";
+    const float x = m.x_eighth_px() / 8.0f, y = m.y_eighth_px() / 8.0f;
+    if (x > w || y > h) return "keypoint " + Str(i) + " outside the image";
     if (m.octave() >= pyramid_levels) {
       return "keypoint " + Str(i) + ": octave " + std::to_string(m.octave()) + " not below pyramid levels " +
              std::to_string(pyramid_levels);
     }
-    f->keypoints[i] = Keypoint{m.x_px(), m.y_px(), m.angle_deg(), m.response(), m.octave()};
+    f->keypoints[i] = Keypoint{x, y, m.angle_256() * (360.0f / 256.0f), 0.0f, m.octave()};
     f->descriptors[i] = DescriptorFromMsg(descriptors[i]);
   }
   *out = std::move(f);

@@ -75,8 +75,8 @@ OrbDescriptor DescriptorFromMsg(const msg::OrbDescriptor& d);
 /// The first `count` features.
 void FeaturesToMsg(const FrameFeatures& f, size_t count, std::vector<msg::Keypoint>* keypoints,
                    std::vector<msg::OrbDescriptor>* descriptors);
-/// Counts (equal, within kMaxKeypoints), every keypoint finite, inside the image, angle
-/// within +-360 deg, octave below `pyramid_levels`.
+/// Counts (equal, within kMaxKeypoints), every keypoint inside the image, octave below
+/// `pyramid_levels`. Positions come back to 1/16 px, angles to 0.7 deg, responses as 0.
 std::string FeaturesFromMsg(const std::vector<msg::Keypoint>& keypoints,
                             const std::vector<msg::OrbDescriptor>& descriptors, const CameraModel& camera,
                             int pyramid_levels, std::shared_ptr<const FrameFeatures>* out);

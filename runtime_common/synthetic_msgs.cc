@@ -41,8 +41,10 @@ void RandomFeatures(std::mt19937_64& rng, int num_features, std::vector<msg::Key
   descriptors->resize(num_features);
   for (int i = 0; i < num_features; ++i) {
     msg::Keypoint& k = (*keypoints)[i];
-    k.x_px(752.0f * u(rng)); k.y_px(480.0f * u(rng)); k.angle_deg(360.0f * u(rng));
-    k.response(u(rng)); k.octave(static_cast<std::uint8_t>(rng() % 8));
+    k.x_eighth_px(static_cast<std::uint16_t>(8 * 752.0f * u(rng)));
+    k.y_eighth_px(static_cast<std::uint16_t>(8 * 480.0f * u(rng)));
+    k.angle_256(static_cast<std::uint8_t>(rng() & 0xFF));
+    k.octave(static_cast<std::uint8_t>(rng() % 8));
     (*descriptors)[i] = RandomDescriptor(rng);
   }
 }

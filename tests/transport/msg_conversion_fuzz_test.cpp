@@ -54,11 +54,10 @@ void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
     case 9: m->pyramid_scale_factor(z.Realf(m->pyramid_scale_factor())); break;
     case 10:
       if (!kp) break;
-      switch (z.rng()() % 5) {
-        case 0: kp->x_px(z.Realf(kp->x_px())); break;
-        case 1: kp->y_px(z.Realf(kp->y_px())); break;
-        case 2: kp->angle_deg(z.Realf(kp->angle_deg())); break;
-        case 3: kp->response(z.Realf(kp->response())); break;
+      switch (z.rng()() % 4) {
+        case 0: kp->x_eighth_px(z.Integer(kp->x_eighth_px())); break;
+        case 1: kp->y_eighth_px(z.Integer(kp->y_eighth_px())); break;
+        case 2: kp->angle_256(z.Integer(kp->angle_256())); break;
         default: kp->octave(z.Integer(kp->octave())); break;
       }
       break;
@@ -149,7 +148,7 @@ void MutateServer(MsgMutator& z, msg::ServerToAgent* m) {
     case 5: if (kf) kf->id(z.Id(kf->id())); break;
     case 6: if (kf) z.Pose(&kf->ref_from_this()); break;
     case 7: if (kf) { kf->pyramid_levels(z.Integer(kf->pyramid_levels())); kf->camera().fy(z.Chance(0.3) ? z.Realf(kf->camera().fy()) : kf->camera().fy()); } break;
-    case 8: if (kf && !kf->keypoints().empty()) { auto& k = kf->keypoints()[z.Index(kf->keypoints().size())]; k.x_px(z.Realf(k.x_px())); k.octave(z.Chance(0.3) ? z.Integer(k.octave()) : k.octave()); } break;
+    case 8: if (kf && !kf->keypoints().empty()) { auto& k = kf->keypoints()[z.Index(kf->keypoints().size())]; k.x_eighth_px(z.Integer(k.x_eighth_px())); k.octave(z.Chance(0.3) ? z.Integer(k.octave()) : k.octave()); } break;
     case 9: if (kf) z.Chance(0.5) ? z.Resize(&kf->keypoints()) : z.Resize(&kf->descriptors()); break;
     case 10: if (mp) { mp->z_ref(z.Realf(mp->z_ref())); if (!mp->obs_kf_ids().empty()) mp->obs_kf_ids()[0] = z.Id(mp->obs_kf_ids()[0]); } break;
     default: if (mp) { z.Chance(0.5) ? z.Resize(&mp->obs_kf_ids()) : z.Resize(&mp->obs_keypoint_index()); if (!mp->obs_keypoint_index().empty()) mp->obs_keypoint_index()[0] = z.Integer(mp->obs_keypoint_index()[0]); } break;

@@ -61,7 +61,7 @@ uint64_t Kf(AgentId agent, uint64_t counter) { return KeyframeId::Make(agent, co
 TEST(MsgRejection, Keyframe) {
   auto r = KeyframeRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "keyframe: protocol version 1, expected 2");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "keyframe: protocol version 1, expected 3");
   EXPECT_EQ(r([](auto& m) { m.id(Kf(4, 12)); }), "keyframe: keyframe id 4:12 belongs to agent 4, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.agent_id(5); }), "keyframe: keyframe id 3:12 belongs to agent 3, not to sender 5");
   EXPECT_EQ(r([](auto& m) { m.id(Kf(3, 0)); }), "keyframe: keyframe id 3:0 is invalid");
@@ -102,10 +102,8 @@ TEST(MsgRejection, KeyframeFeaturesAndLinks) {
               m.descriptors().resize(msg::kMaxKeypoints + 1);
             }),
             "keyframe: 4001 keypoints (limit 4000)");
-  EXPECT_EQ(r([](auto& m) { m.keypoints()[12].x_px(800.0f); }), "keyframe: keypoint 12 outside the image");
-  EXPECT_EQ(r([](auto& m) { m.keypoints()[12].y_px(-3.0f); }), "keyframe: keypoint 12 outside the image");
-  EXPECT_EQ(r([](auto& m) { m.keypoints()[12].response(kNaN); }), "keyframe: keypoint 12: non-finite value");
-  EXPECT_EQ(r([](auto& m) { m.keypoints()[12].angle_deg(1e9f); }), "keyframe: keypoint 12: angle beyond 360 deg");
+  EXPECT_EQ(r([](auto& m) { m.keypoints()[12].x_eighth_px(8 * 800); }), "keyframe: keypoint 12 outside the image");
+  EXPECT_EQ(r([](auto& m) { m.keypoints()[12].y_eighth_px(65535); }), "keyframe: keypoint 12 outside the image");
   EXPECT_EQ(r([](auto& m) { m.keypoints()[12].octave(8); }),
             "keyframe: keypoint 12: octave 8 not below pyramid levels 8");
   EXPECT_EQ(r([](auto& m) { m.mp_ids().pop_back(); }), "keyframe: 34 link indices but 33 link ids");
@@ -142,7 +140,7 @@ TEST(MsgRejection, KeyframePoses) {
 TEST(MsgRejection, MapPoint) {
   auto r = MapPointRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(3); }), "map point: protocol version 3, expected 2");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point: protocol version 2, expected 3");
   EXPECT_EQ(r([](auto& m) { m.id(MapPointId::Make(4, 40).packed()); }),
             "map point: map point id 4:40 belongs to agent 4, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.segment_id(0); }), "map point: segment id 0:0 is invalid");
@@ -166,7 +164,7 @@ TEST(MsgRejection, MapPoint) {
 TEST(MsgRejection, Updates) {
   auto k = KeyframeUpdateRejection;
   EXPECT_EQ(k([](auto&) {}), "accepted");
-  EXPECT_EQ(k([](auto& m) { m.protocol_version(0); }), "keyframe update: protocol version 0, expected 2");
+  EXPECT_EQ(k([](auto& m) { m.protocol_version(0); }), "keyframe update: protocol version 0, expected 3");
   EXPECT_EQ(k([](auto& m) { m.id(Kf(1, 20)); }), "keyframe update: keyframe id 1:20 belongs to agent 1, not to sender 3");
   EXPECT_EQ(k([](auto& m) { m.segment_counter(0); }), "keyframe update: segment counter is 0");
   EXPECT_EQ(k([](auto& m) { m.predecessor_id(Kf(2, 19)); }), "keyframe update: predecessor of another agent");
@@ -180,7 +178,7 @@ TEST(MsgRejection, Updates) {
 
   auto p = MapPointUpdateRejection;
   EXPECT_EQ(p([](auto&) {}), "accepted");
-  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected 2");
+  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected 3");
   EXPECT_EQ(p([](auto& m) { m.id(MapPointId::Make(3, 0).packed()); }), "map point update: map point id 3:0 is invalid");
   EXPECT_EQ(p([](auto& m) { m.segment_counter(0); }), "map point update: segment counter is 0");
   EXPECT_EQ(p([](auto& m) { m.ref_kf_id(Kf(9, 4)); }),
@@ -192,7 +190,7 @@ TEST(MsgRejection, Updates) {
 TEST(MsgRejection, ServerMessage) {
   auto r = ServerRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "server message: protocol version 1, expected 2");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "server message: protocol version 1, expected 3");
   EXPECT_EQ(r([](auto& m) { m.agent_id(2); }), "server message: addressed to agent 2, not 1");
   EXPECT_EQ(r([](auto& m) { m.acked_kf_ids().push_back(Kf(2, 5)); }),
             "server message: acked keyframe id 2:5 belongs to agent 2, not to sender 1");
@@ -209,7 +207,7 @@ TEST(MsgRejection, ServerMessage) {
             "server message: keyframe 1: camera: cx and cy must be finite");
   EXPECT_EQ(r([](auto& m) { m.keyframes()[1].pyramid_levels(17); }),
             "server message: keyframe 1: pyramid levels 17 not in 1..16");
-  EXPECT_EQ(r([](auto& m) { m.keyframes()[0].keypoints()[3].x_px(-5.0f); }),
+  EXPECT_EQ(r([](auto& m) { m.keyframes()[0].keypoints()[3].x_eighth_px(60000); }),
             "server message: keyframe 0: keypoint 3 outside the image");
   EXPECT_EQ(r([](auto& m) { m.keyframes()[0].ref_from_this().qz(2.0); }),
             "server message: keyframe 0: ref_from_this: quaternion is not a unit quaternion");

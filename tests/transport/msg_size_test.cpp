@@ -23,24 +23,25 @@ std::uint32_t SerializedSize(typename PubSubT::type& msg, typename PubSubT::type
   return payload.length;
 }
 
-TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout55kB) {
+TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout41kB) {
   msg::KeyframeFull kf = synthetic::MakeKeyframe(3, 7, 1000, 300);
   msg::KeyframeFull back;
   const auto bytes = SerializedSize<msg::KeyframeFullPubSubType>(kf, &back);
-  // 1000 x (20 B keypoint + 32 B descriptor) + 300 x 10 B associations + header/poses.
-  EXPECT_GE(bytes, 52000u);
-  EXPECT_LE(bytes, 56000u);
+  // 1000 x (6 B keypoint + 32 B descriptor) + 300 x 10 B associations + header/poses
+  // (CCM-SLAM: 20 B per keypoint, ~55 kB).
+  EXPECT_GE(bytes, 38000u);
+  EXPECT_LE(bytes, 42000u);
   EXPECT_TRUE(back == kf);
   RecordProperty("keyframe_bytes", static_cast<int>(bytes));
   std::cout << "full keyframe, 1000 features, 300 links: " << bytes << " B\n";
 }
 
-TEST(MsgSize, KeypointCostsTwentyBytes) {
+TEST(MsgSize, KeypointCostsSixBytes) {
   msg::KeyframeFull a = synthetic::MakeKeyframe(1, 1, 100, 0);
   msg::KeyframeFull b = synthetic::MakeKeyframe(1, 1, 200, 0);
   const auto sa = SerializedSize<msg::KeyframeFullPubSubType>(a);
   const auto sb = SerializedSize<msg::KeyframeFullPubSubType>(b);
-  EXPECT_EQ(sb - sa, 100u * (20u + 32u));  // keypoint + descriptor per feature
+  EXPECT_EQ(sb - sa, 100u * (6u + 32u));  // keypoint + descriptor per feature
 }
 
 TEST(MsgSize, KeyframeUpdateFitsIn148Bytes) {
