@@ -130,7 +130,7 @@ msg::MapPointFull ToMsg(const MapPointData& mp) {
     m.obs_keypoint_index().push_back(static_cast<std::uint16_t>(index));
   }
   m.descriptor(DescriptorToMsg(mp.descriptor));
-  return m;  // normal and depth range stay 0: unknown
+  return m;
 }
 
 std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, std::string* error) {
@@ -143,9 +143,6 @@ std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, std::string* err
   if (auto e = OwnIdFromMsg(m.segment_id(), agent, "segment", &mp.segment); !e.empty()) return reject(e);
   if (auto e = OwnIdFromMsg(m.ref_kf_id(), agent, "reference keyframe", &mp.reference_kf); !e.empty()) return reject(e);
   if (auto e = PositionFromMsg(m.x_ref(), m.y_ref(), m.z_ref(), &mp.position_ref); !e.empty()) return reject(e);
-  for (float v : {m.nx(), m.ny(), m.nz(), m.min_depth_m(), m.max_depth_m()}) {
-    if (!std::isfinite(v)) return reject("normal or depth range: non-finite value");
-  }
   const auto& kfs = m.obs_kf_ids();
   const auto& index = m.obs_keypoint_index();
   if (kfs.size() != index.size()) return reject(Str(kfs.size()) + " observing keyframes but " + Str(index.size()) + " keypoint indices");

@@ -97,8 +97,6 @@ msg::MapPointFull MakeMapPoint(std::uint16_t agent, std::uint64_t index, int num
     mp.obs_keypoint_index().push_back(static_cast<std::uint16_t>(rng() % 1000));
   }
   mp.descriptor(RandomDescriptor(rng));
-  mp.nx(0.0f); mp.ny(0.0f); mp.nz(1.0f);
-  mp.min_depth_m(1.0f); mp.max_depth_m(8.0f);
   return mp;
 }
 

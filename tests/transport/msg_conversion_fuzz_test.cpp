@@ -90,7 +90,7 @@ void MutateMapPoint(MsgMutator& z, msg::MapPointFull* m) {
     case 3: m->segment_id(z.Id(m->segment_id())); break;
     case 4: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
     case 5: m->x_ref(z.Realf(m->x_ref())); break;
-    case 6: m->nz(z.Realf(m->nz())); break;
+    case 6: m->z_ref(z.Realf(m->z_ref())); break;
     case 7: z.Chance(0.5) ? z.Resize(&m->obs_kf_ids()) : z.Resize(&m->obs_keypoint_index()); break;
     case 8: if (!m->obs_kf_ids().empty()) { auto& id = m->obs_kf_ids()[z.Index(m->obs_kf_ids().size())]; id = z.Id(id); } break;
     default: if (!m->obs_keypoint_index().empty()) { auto& i = m->obs_keypoint_index()[0]; i = z.Integer(i); } break;

@@ -148,7 +148,6 @@ TEST(MsgRejection, MapPoint) {
             "map point: reference keyframe id 2:3 belongs to agent 2, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.y_ref(kNaN); }), "map point: position: non-finite value");
   EXPECT_EQ(r([](auto& m) { m.z_ref(3e7f); }), "map point: position beyond 1e6 m");
-  EXPECT_EQ(r([](auto& m) { m.nx(kNaN); }), "map point: normal or depth range: non-finite value");
   EXPECT_EQ(r([](auto& m) { m.obs_kf_ids().pop_back(); }), "map point: 4 observing keyframes but 5 keypoint indices");
   EXPECT_EQ(r([](auto& m) {
               m.obs_kf_ids().resize(65, Kf(3, 3));
