@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <type_traits>
 
 #include "idl/ccm_msgs.h"
 #include "slam_core/common/ids.h"
@@ -56,13 +57,16 @@ class MsgMutator {
   }
   float Realf(float v) { return static_cast<float>(Real(v)); }
 
+  /// 0, the maximum, +-1 (wrapping, as the sender's own integer arithmetic would: computed
+  /// unsigned, since v + 1 overflows a signed T at its maximum), or random bits.
   template <typename T>
   T Integer(T v) {
+    using U = std::make_unsigned_t<T>;
     switch (rng_() % 5) {
       case 0: return 0;
       case 1: return std::numeric_limits<T>::max();
-      case 2: return static_cast<T>(v + 1);
-      case 3: return static_cast<T>(v - 1);
+      case 2: return static_cast<T>(static_cast<U>(static_cast<U>(v) + 1u));
+      case 3: return static_cast<T>(static_cast<U>(static_cast<U>(v) - 1u));
       default: return static_cast<T>(rng_());
     }
   }
