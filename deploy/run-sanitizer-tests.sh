@@ -5,10 +5,10 @@
 # server messages through conversion and a server back-end. Any sanitizer finding fails the
 # job (halt_on_error). A fresh build-asan tree took 14 min at JOBS=1 on the shared 2-core box
 # (ccache helps later runs); kept out of the main CI run, which must stay under 30 min.
-# Status (2026-11-24, measured on 7a881ae + the fixes below): clean. 28 tests (7 size,
-# 13 conversion, 7 rejection, 1 fuzz) pass with no ASan/UBSan/LSan report; run 40 s, nearly
-# all of it the fuzz test (8.8 s in Release): 100,000 messages, 21,262 accepted, 78,738 rejected
-# (100 reason kinds); 1,217 batches refused by the back-end (agents beyond max_agents, agent 0).
+# Status (2026-11-24, protocol v3): clean. 28 tests (7 size, 13 conversion,
+# 7 rejection, 1 fuzz) pass with no ASan/UBSan/LSan report; run 39 s, nearly all of it the
+# fuzz test (7-9 s in Release): 100,000 messages, 22,630 accepted, 77,370 rejected (95 reason
+# kinds); 1,262 batches refused by the back-end (agents beyond max_agents, agent 0).
 # Fixed on the way: (1) the bad-free inside libopengv's fivept_stewenius was ours: under
 # ASan, Eigen swaps malloc for its hand-made aligned allocator while Debian's libopengv uses
 # malloc, and shared Eigen template instances mixed the two; CCM_SANITIZE now defines
