@@ -45,6 +45,11 @@ void LocalMapper::Process(const KeyframeJob& job) {
 
 void LocalMapper::ApplyServerData(Map* map, const ServerMapData& data) {
   IntegrateServerData(data, shared_->agent, shared_->pyramid, map, &bound_, &server_stats_);
+  std::vector<KeyframeId> shared_kfs;
+  for (const ServerKeyframe& kf : data.keyframes) {
+    if (kf.id.agent() != shared_->agent && map->keyframe(kf.id)) shared_kfs.push_back(kf.id);
+  }
+  shared_->neighbourhood.Set(std::move(shared_kfs));
 }
 
 void LocalMapper::Retire(const std::shared_ptr<KeyFrame>& kf) {

@@ -7,6 +7,7 @@
 #include <memory>
 #include <mutex>
 #include <set>
+#include <vector>
 
 #include "slam_core/map/map.h"
 #include "slam_core/vo/vo_options.h"
@@ -63,6 +64,26 @@ class ChangeLog {
   std::set<MapPointId> map_points_;
 };
 
+/// Keyframes of other agents the server sent last (its k most covisible with the agent's
+/// reference keyframe, CCM-SLAM 4.5). Tracking adds them to its local map, so their points
+/// are matched where the agent's own map has none yet (entering an area another agent
+/// mapped). Written by the mapping thread when it applies server data, read by tracking.
+class SharedNeighbourhood {
+ public:
+  void Set(std::vector<KeyframeId> ids) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ids_ = std::move(ids);
+  }
+  std::vector<KeyframeId> Get() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return ids_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<KeyframeId> ids_;
+};
+
 struct VoShared {
   VoShared(AgentId agent_id, std::shared_ptr<const CameraModel> cam, const VoOptions& opts)
       : agent(agent_id),
@@ -81,6 +102,7 @@ struct VoShared {
   AtomicIdGenerator<MapPointId> mp_ids;
   AtomicIdGenerator<MapId> map_ids;
   ChangeLog changes;
+  SharedNeighbourhood neighbourhood;
 };
 
 }  // namespace ccm
