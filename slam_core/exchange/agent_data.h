@@ -76,7 +76,7 @@ struct MapPointPositionUpdate {
 struct AgentBatch {
   AgentId agent = 0;
   MapId segment;            ///< the agent's current segment
-  KeyframeId reference_kf;  ///< the agent's current reference keyframe (server replies relative to it)
+  KeyframeId reference_kf;  ///< the newest keyframe sent (the VO reference once sent): the server replies relative to it
   int64_t stamp_ns = 0;     ///< agent clock when packed
   std::vector<KeyframeData> keyframes;
   std::vector<MapPointData> map_points;

@@ -1,6 +1,7 @@
 #include "slam_core/vo/change_packer.h"
 
 #include <algorithm>
+#include <limits>
 
 namespace ccm {
 namespace {
@@ -177,8 +178,24 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
       ++point_updates_skipped_;
     }
   }
+  batch.reference_kf = SharedReference(map, changes.reference_kf);
   if (++packs_ % 64 == 0) Forget(map);
   return batch;
+}
+
+KeyframeId ChangePacker::SharedReference(const Map& map, KeyframeId vo_reference) const {
+  // The server answers relative to the reference keyframe, so it must have it: the VO's
+  // reference is usually younger than the send delay and not at the server yet (then the
+  // server could place nothing and map sharing never happened). Use the newest keyframe
+  // already sent; it is at most the send delay older.
+  if (!vo_reference.valid() || sent_kfs_.count(vo_reference)) return vo_reference;
+  KeyframeId best = vo_reference;
+  int64_t best_ns = std::numeric_limits<int64_t>::min();
+  for (const KeyframeId id : sent_kfs_) {
+    const auto kf = map.keyframe(id);
+    if (kf && !kf->bad() && kf->stamp_ns() > best_ns) best = id, best_ns = kf->stamp_ns();
+  }
+  return best;
 }
 
 void ChangePacker::Forget(const Map& map) {

@@ -53,6 +53,7 @@ class ChangePacker {
 
  private:
   void Forget(const Map& map);
+  KeyframeId SharedReference(const Map& map, KeyframeId vo_reference) const;
 
   struct SentPoint {
     KeyframeId reference_kf;
