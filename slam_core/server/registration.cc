@@ -104,6 +104,11 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
     h->map_from_segment = MapFromSegment(final_pose, data.segment_from_cam, h->scale);
   });
   report->keyframes.push_back(reg);
+  // RegisterPoint takes the map's shared lock itself. Taking it twice on one thread
+  // deadlocks as soon as a writer (fusion, loop closure, global BA) queues in between: the
+  // mutex prefers writers, so the second shared lock waits for the writer, which waits for
+  // the first. (Seen in the demo once agents tracked shared points.)
+  locked.lock.unlock();
   ReleaseWaitingPoints(data.id, report);
 }
 
