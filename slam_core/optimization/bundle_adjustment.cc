@@ -160,6 +160,7 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
     }
   }
   ceres::Solver::Options so;
+  so.logging_type = ceres::SILENT;  // failed steps are handled; no log line per step
   so.max_num_iterations = max_iterations;
   so.num_threads = options.num_threads;
   so.function_tolerance = options.function_tolerance;

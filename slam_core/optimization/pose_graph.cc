@@ -84,6 +84,7 @@ OptimizationSummary OptimizePoseGraph(PoseGraphProblem* problem, const PoseGraph
     return out;
   }
   ceres::Solver::Options so;
+  so.logging_type = ceres::SILENT;  // failed steps are handled; no log line per step
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.sparse_linear_algebra_library_type =
       ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SUITE_SPARSE

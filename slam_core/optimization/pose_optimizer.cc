@@ -34,6 +34,10 @@ ceres::Solver::Summary RunPosePass(const CameraModel& camera, const std::vector<
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = options.iterations_per_round;
   so.num_threads = 1;
+  // A trust-region step may carry a point behind the camera; the cost then fails to
+  // evaluate and Ceres treats the step as infinitely bad and shrinks it (correct), but
+  // would log a warning each time: hundreds per flight.
+  so.logging_type = ceres::SILENT;
   ceres::Solve(so, &cp, &summary);
   return summary;
 }
