@@ -60,6 +60,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     stats_.keyframes_created += r.new_keyframe;
     stats_.keyframe_reasons = tracker_.keyframe_reasons();
     stats_.segments = tracker_.segments_started() + 1;
+    stats_.planar_init_attempts = tracker_.planar_init_attempts();
     AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }
   // Nobody may be taking changes (standalone, server unreachable): keep the log bounded.

@@ -38,6 +38,7 @@ struct AgentVoStats {
   int64_t keyframes_created = 0;
   std::array<int64_t, 6> keyframe_reasons{};  ///< per KeyframeReason (why each was made)
   int segments = 0;
+  int64_t planar_init_attempts = 0;  ///< failed initializations on planar-looking views
   size_t keyframes_in_map = 0;
   size_t map_points_in_map = 0;
   MappingStats mapping;

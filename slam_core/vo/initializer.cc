@@ -67,7 +67,10 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
     init_options.min_parallax_deg = std::max(o.init_min_parallax_deg, o.init_homography_min_parallax_deg);
     two_view = solvers::InitializeTwoView(b1, b2, init_options);
   }
-  if (!two_view.ok() || two_view.num_triangulated < o.init_min_map_points) return std::nullopt;
+  if (!two_view.ok() || two_view.num_triangulated < o.init_min_map_points) {
+    planar_attempts_ += two_view.homography_ratio >= 0.40 && two_view.homography_ratio < o.init_min_homography_ratio;
+    return std::nullopt;
+  }
 
   InitializationResult r;
   r.map = std::make_shared<Map>(shared_->map_ids.Next(), o.map);

@@ -28,6 +28,10 @@ class Initializer {
     reference_.reset();
     search_centres_.clear();
   }
+  /// Two-view attempts that failed on a view that looks planar (homography score ratio
+  /// between ORB-SLAM's 0.40 and init_min_homography_ratio): the runtime tells the user
+  /// that a road/floor profile would initialize sooner.
+  int64_t planar_attempts() const { return planar_attempts_; }
 
  private:
   std::optional<InitializationResult> TryInitialize(const VoFrame& cur);
@@ -35,6 +39,7 @@ class Initializer {
   VoShared* shared_;
   std::optional<VoFrame> reference_;
   std::vector<Eigen::Vector2f> search_centres_;  ///< per reference keypoint
+  int64_t planar_attempts_ = 0;
 };
 
 }  // namespace ccm

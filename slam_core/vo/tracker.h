@@ -49,6 +49,7 @@ class Tracker {
   const std::shared_ptr<KeyFrame>& reference_keyframe() const { return reference_kf_; }
   int segments_started() const { return segments_started_; }
   int resets() const { return resets_; }
+  int64_t planar_init_attempts() const { return initializer_.planar_attempts(); }
   /// Keyframes made per KeyframeReason (index = enum value).
   const std::array<int64_t, 6>& keyframe_reasons() const { return keyframe_reasons_; }
 
