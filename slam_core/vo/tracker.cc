@@ -30,10 +30,7 @@ TrackingResult Tracker::Track(VoFrame frame) {
       frame.world_from_cam = init->kf2->world_from_cam();
       frame.map_points = init->cur_matches;
       OnInitialized(*init);
-      reference_coverage_ = ImageCoverage(frame);
-      reference_median_depth_ = MedianDepth(frame);
-      last_kf_frame_index_ = frame.index;
-      last_kf_stamp_ns_ = frame.stamp_ns;
+      RememberKeyframeFrame(frame);
       result.world_from_cam = frame.world_from_cam;
       result.inliers = frame.NumMatched();
       result.new_keyframe = true;
@@ -319,9 +316,9 @@ KeyframeReason Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
   in.seconds_since_kf = 1e-9 * static_cast<double>(f.stamp_ns - last_kf_stamp_ns_);
   in.inliers = inliers;
   in.reference_points = ref_points;
-  in.coverage = ImageCoverage(f);
+  if (reference_coverage_ > 0) in.coverage = ImageCoverage(f);
   in.reference_coverage = reference_coverage_;
-  in.baseline_over_depth = BaselineOverDepth(f);
+  if (reference_median_depth_ > 0) in.baseline_over_depth = BaselineOverDepth(f);
   in.mapper_idle = mapper_idle_();
   return DecideKeyframe(shared_->options.keyframe, in);
 }
@@ -335,11 +332,17 @@ void Tracker::CreateKeyframe(const VoFrame& f) {
   }
   reference_kf_ = kf;
   reference_tracked_ = f.NumMatched();
-  reference_coverage_ = ImageCoverage(f);
-  reference_median_depth_ = MedianDepth(f);
+  RememberKeyframeFrame(f);
+  sink_(std::move(job));
+}
+
+void Tracker::RememberKeyframeFrame(const VoFrame& f) {
+  // Coverage and depth only when a criterion uses them (they are measured on every frame).
+  const KeyframeDecisionOptions& o = shared_->options.keyframe;
+  reference_coverage_ = o.coverage_ratio > 0 ? ImageCoverage(f) : 0.0;
+  reference_median_depth_ = o.baseline_depth_ratio > 0 ? MedianDepth(f) : 0.0;
   last_kf_frame_index_ = f.index;
   last_kf_stamp_ns_ = f.stamp_ns;
-  sink_(std::move(job));
 }
 
 }  // namespace ccm

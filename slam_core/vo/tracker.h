@@ -63,6 +63,8 @@ class Tracker {
   double ImageCoverage(const VoFrame& f) const;
   double MedianDepth(const VoFrame& f) const;
   double BaselineOverDepth(const VoFrame& f) const;
+  /// The reference keyframe's measures for the keyframe decision, taken on its frame.
+  void RememberKeyframeFrame(const VoFrame& f);
   void CreateKeyframe(const VoFrame& f);
   void StartNewSegment();
   void ResetToInitialization();
