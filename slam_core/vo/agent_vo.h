@@ -10,8 +10,6 @@
 // data); stats_mutex_ is a leaf.
 #pragma once
 
-#include <array>
-
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -36,7 +34,7 @@ struct AgentVoStats {
   int64_t frames = 0;
   int64_t frames_tracked = 0;
   int64_t keyframes_created = 0;
-  std::array<int64_t, 6> keyframe_reasons{};  ///< per KeyframeReason (why each was made)
+  KeyframeReasonCounts keyframe_reasons{};  ///< why each keyframe was made
   int segments = 0;
   int64_t planar_init_attempts = 0;  ///< failed initializations on planar-looking views
   size_t keyframes_in_map = 0;

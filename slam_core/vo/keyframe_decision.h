@@ -11,6 +11,8 @@
 // Pure: the tracker measures, this decides (unit-testable without images).
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -43,6 +45,9 @@ struct KeyframeDecisionInput {
 };
 
 enum class KeyframeReason { kNone, kTrackedRatio, kCoverage, kBaseline, kInterval, kUrgent };
+constexpr size_t kNumKeyframeReasons = 6;
+/// Keyframes made per reason (index = KeyframeReason value).
+using KeyframeReasonCounts = std::array<int64_t, kNumKeyframeReasons>;
 const char* KeyframeReasonName(KeyframeReason reason);
 
 /// kNone: no keyframe for this frame; else why one is made.

@@ -276,6 +276,8 @@ double Tracker::ImageCoverage(const VoFrame& f) const {
 }
 
 double Tracker::MedianDepth(const VoFrame& f) const {
+  // From the frame, not map/MedianSceneDepth(map, kf): the new keyframe's points are linked
+  // only when mapping inserts it, later.
   std::vector<double> depths;
   const SE3 cam_from_world = f.cam_from_world();
   for (size_t i = 0; i < f.size(); ++i) {

@@ -5,7 +5,6 @@
 // mapper through the sink given at construction.
 #pragma once
 
-#include <array>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -51,7 +50,7 @@ class Tracker {
   int resets() const { return resets_; }
   int64_t planar_init_attempts() const { return initializer_.planar_attempts(); }
   /// Keyframes made per KeyframeReason (index = enum value).
-  const std::array<int64_t, 6>& keyframe_reasons() const { return keyframe_reasons_; }
+  const KeyframeReasonCounts& keyframe_reasons() const { return keyframe_reasons_; }
 
  private:
   bool TrackWithMotionModel(VoFrame* f);
@@ -88,7 +87,7 @@ class Tracker {
   int64_t last_reloc_frame_index_ = -1000;
   int lost_frames_ = 0;
   int segments_started_ = 0;
-  std::array<int64_t, 6> keyframe_reasons_{};
+  KeyframeReasonCounts keyframe_reasons_{};
   int resets_ = 0;  ///< initializations discarded because tracking failed right after
 };
 
