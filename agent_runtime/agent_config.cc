@@ -64,6 +64,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("new_keyframe_delay_s", &config->new_keyframe_delay_s);
   r.Get("max_keyframes", &config->max_keyframes);
   r.Get("buffer_keyframes", &config->buffer_keyframes);
+  r.Get("vocabulary", &config->vocabulary);
   if (const YAML::Node vo_node = r.Child("vo"); vo_node && r.ok()) {
     if (!vo_node.IsMap()) {
       r.Fail("vo", "must be a mapping of VO options");

@@ -22,6 +22,7 @@ struct AgentConfig {
   double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long
   int max_keyframes = 50;              // N: local map size (CCM-SLAM default)
   int buffer_keyframes = 50;           // B: extra unacknowledged KFs kept (paper: B = N)
+  std::string vocabulary;              // bag-of-words vocabulary for relocalization; empty: built-in, "none": brute force
   VoOptions vo;                        // `vo:` section (docs/configuration.md); N and B above win
 
   /// Empty when valid, otherwise the first problem found.

@@ -14,10 +14,15 @@
 #include "slam_core/io/dataset.h"
 #include "slam_core/io/video_source.h"
 #include "slam_core/io/trajectory_io.h"
+#include "slam_core/place_recognition/vocabulary_io.h"
 #include "agent_runtime/agent_comm.h"
 #include "slam_core/vo/agent_vo.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
+
+#ifndef CCM_DEFAULT_VOCABULARY
+#define CCM_DEFAULT_VOCABULARY ""
+#endif
 
 namespace ccm::agent {
 namespace {
@@ -137,7 +142,21 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   const AckSource& acks = comm_config ? static_cast<const AckSource&>(tracker)
                           : o.no_acks ? static_cast<const AckSource&>(ack_none)
                                       : static_cast<const AckSource&>(ack_all);
-  AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false);
+  std::shared_ptr<const Vocabulary> vocabulary;
+  const std::string vocabulary_path = o.vocabulary.empty() ? CCM_DEFAULT_VOCABULARY : o.vocabulary;
+  if (vocabulary_path.empty()) {
+    spdlog::info("no vocabulary built in: relocalization matches against every local map point (give --vocab FILE)");
+  } else if (o.vocabulary != "none") {
+    const std::string& path = vocabulary_path;
+    auto loaded = LoadVocabularyFile(path, &error);
+    if (!loaded) {
+      std::cerr << "error: vocabulary: " << error << " (give --vocab FILE, or --vocab none for brute-force relocalization)\n";
+      return 2;
+    }
+    vocabulary = std::make_shared<const Vocabulary>(std::move(*loaded));
+    spdlog::info("relocalization vocabulary {} ({} words)", path, vocabulary->num_words());
+  }
+  AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false, vocabulary);
   std::unique_ptr<AgentComm> comm;
   if (comm_config) {
     comm = AgentComm::Create(*comm_config, *session, &vo, &tracker, &error);
@@ -248,6 +267,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
                             {"map_points_in_map", s.map_points_in_map},
                             {"keyframes_lost", s.trim.removed_lost},
                             {"segments", s.segments},
+                            {"relocalizations", s.relocalizations},
                             {"server_keyframes_added", s.server.keyframes_added},
                             {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
                             {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},

@@ -32,6 +32,9 @@ struct RunOptions {
   double progress_period_s = 2.0;
   double drain_s = 30.0;         ///< connected: wait at most this long for the last acks
   VoOptions vo;
+  /// Bag-of-words vocabulary for relocalization: empty = the built-in one, "none" = brute
+  /// force over the local map.
+  std::string vocabulary;
 
   std::string Validate() const;
 };

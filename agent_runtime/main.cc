@@ -45,6 +45,8 @@ int main(int argc, char** argv) {
   app.add_option("--ground-truth", run.ground_truth_out, "write the input's ground truth of the processed frames (TUM)");
   app.add_option("--rate", run.rate, "playback: max, realtime or a speed factor")->capture_default_str();
   app.add_option("--max-frames", run.max_frames, "stop after N frames (-1: all)")->capture_default_str();
+  auto* vocab_opt = app.add_option("--vocab", config.vocabulary,
+                                   "bag-of-words vocabulary for relocalization (default: built-in; none: brute force)");
   app.add_flag("--no-acks", run.no_acks, "standalone: act as if the server never acknowledges (N+B, then drops)");
   app.add_option("--drain", run.drain_s, "connected: wait this long for the last acknowledgements [s]")
       ->capture_default_str();
@@ -72,6 +74,7 @@ int main(int argc, char** argv) {
     if (*domain_opt) config.domain_id = cli.domain_id;
     if (*qos_opt) config.qos_file = cli.qos_file;
     if (*log_opt) config.log_level = cli.log_level;
+    if (*vocab_opt) config.vocabulary = cli.vocabulary;
   }
   if (*sharing_opt) config.map_sharing = false;
   if (const std::string problem = config.Validate(); !problem.empty()) {
@@ -84,6 +87,7 @@ int main(int argc, char** argv) {
   }
   run.agent_id = config.agent_id;
   run.vo = config.vo;
+  run.vocabulary = config.vocabulary;
   run.vo.bound.max_keyframes = config.max_keyframes;
   run.vo.bound.max_unacked_buffer = config.buffer_keyframes;
   // A flight has no end: keep only what trajectories need when they are asked for.

@@ -27,14 +27,16 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 AgentVo::AgentVo(AgentId agent, std::shared_ptr<const CameraModel> camera, VoOptions options,
-                 const AckSource* acks, bool synchronous_mapping)
+                 const AckSource* acks, bool synchronous_mapping, std::shared_ptr<const Vocabulary> vocabulary)
     : shared_(agent, std::move(camera), options),
       synchronous_(synchronous_mapping),
       extractor_(options.orb),
       init_extractor_(WithFeatures(options.orb, options.init_num_features)),
       tracker_(&shared_, [this](KeyframeJob job) { Enqueue(MappingJob{std::move(job), nullptr, std::nullopt}); },
                [this] { return mapping_idle(); }),
-      mapper_(&shared_, acks) {}
+      mapper_(&shared_, acks) {
+  if (vocabulary) shared_.relocalization = std::make_unique<RelocalizationIndex>(std::move(vocabulary));
+}
 
 TrackingResult AgentVo::TrackFrame(const Frame& frame) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -61,6 +63,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     stats_.keyframe_reasons = tracker_.keyframe_reasons();
     stats_.segments = tracker_.segments_started() + 1;
     stats_.planar_init_attempts = tracker_.planar_init_attempts();
+    stats_.relocalizations = tracker_.relocalizations();
     AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }
   // Nobody may be taking changes (standalone, server unreachable): keep the log bounded.
@@ -134,6 +137,7 @@ void AgentVo::ProcessJob(const MappingJob& job) {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
     if (job.map == CurrentMap()) {
       mapper_.ApplyServerData(job.map.get(), *job.server);
+      SyncRelocalizationIndex();
     }
     return;
   }
@@ -141,9 +145,15 @@ void AgentVo::ProcessJob(const MappingJob& job) {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
     mapper_.Process(*job.keyframe);
   }
+  SyncRelocalizationIndex();
   const double ms = MsSince(t0);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   AddSample(&stats_.mapping_ms, mapping_samples_++, ms);
+}
+
+void AgentVo::SyncRelocalizationIndex() {
+  if (!shared_.relocalization) return;
+  if (const auto m = CurrentMap()) shared_.relocalization->Sync(*m);
 }
 
 VoChanges AgentVo::TakeChanges() {
@@ -176,6 +186,7 @@ AgentVoStats AgentVo::stats() const {
     s.trim = mapper_.trim_stats();
     s.server = mapper_.server_stats();
   }
+  if (shared_.relocalization) s.relocalization_index_size = shared_.relocalization->size();
   if (const auto m = CurrentMap()) {
     s.keyframes_in_map = m->num_keyframes();
     s.map_points_in_map = m->num_map_points();

@@ -37,6 +37,8 @@ struct AgentVoStats {
   KeyframeReasonCounts keyframe_reasons{};  ///< why each keyframe was made
   int segments = 0;
   int64_t planar_init_attempts = 0;  ///< failed initializations on planar-looking views
+  int64_t relocalizations = 0;       ///< lost -> tracking again in the same segment
+  size_t relocalization_index_size = 0;  ///< keyframes in the bag-of-words index
   size_t keyframes_in_map = 0;
   size_t map_points_in_map = 0;
   MappingStats mapping;
@@ -60,8 +62,11 @@ struct VoChanges {
 
 class AgentVo {
  public:
+  /// With a vocabulary, a lost agent relocalizes through a bag-of-words index of its local
+  /// map; without, by matching against every local map point (slower, fails more often in
+  /// large maps).
   AgentVo(AgentId agent, std::shared_ptr<const CameraModel> camera, VoOptions options, const AckSource* acks,
-          bool synchronous_mapping);
+          bool synchronous_mapping, std::shared_ptr<const Vocabulary> vocabulary = nullptr);
 
   /// Tracking thread. Returns the tracking outcome of this frame.
   TrackingResult TrackFrame(const Frame& frame);
@@ -105,6 +110,8 @@ class AgentVo {
   };
   void Enqueue(MappingJob job);
   void ProcessJob(const MappingJob& job);
+  /// Mapping thread: the relocalization index follows the current segment's keyframes.
+  void SyncRelocalizationIndex();
 
   VoShared shared_;
   const bool synchronous_;

@@ -57,6 +57,7 @@ TrackingResult Tracker::Track(VoFrame frame) {
     ok = inliers >= needed;
   }
   if (ok) {
+    relocalizations_ += state_ == TrackingState::kLost;
     state_ = TrackingState::kTracking;
     lost_frames_ = 0;
     if (last_frame_) velocity_ = frame.cam_from_world() * last_frame_->world_from_cam;
@@ -173,7 +174,34 @@ bool Tracker::TrackReferenceKeyframe(VoFrame* f) {
 
 bool Tracker::Relocalize(VoFrame* f) {
   if (!map_) return false;
-  std::vector<std::shared_ptr<MapPoint>> points = map_->map_points();
+  // Without a vocabulary: appearance matching against every point of the local map.
+  if (!shared_->relocalization) return RelocalizeAgainst(f, map_->map_points());
+  // With one: only the points around the keyframes that look like this frame (ORB-SLAM).
+  const auto candidates = shared_->relocalization->Candidates(f->features->descriptors, *map_,
+                                                              shared_->options.reloc_max_candidates);
+  for (const auto& kf : candidates) {
+    if (RelocalizeAgainst(f, PointsAround(*kf))) return true;
+  }
+  return false;
+}
+
+std::vector<std::shared_ptr<MapPoint>> Tracker::PointsAround(const KeyFrame& kf) const {
+  std::vector<KeyframeId> kfs = kf.BestCovisible(shared_->options.reloc_covisible_keyframes);
+  kfs.push_back(kf.id());
+  std::unordered_set<MapPointId> seen;
+  std::vector<std::shared_ptr<MapPoint>> points;
+  for (const KeyframeId id : kfs) {
+    const auto k = map_->keyframe(id);
+    if (!k || k->bad()) continue;
+    for (const MapPointId mp_id : k->map_points()) {
+      if (!mp_id.valid() || !seen.insert(mp_id).second) continue;
+      if (auto mp = map_->map_point(mp_id); mp && !mp->bad()) points.push_back(std::move(mp));
+    }
+  }
+  return points;
+}
+
+bool Tracker::RelocalizeAgainst(VoFrame* f, const std::vector<std::shared_ptr<MapPoint>>& points) {
   const auto matches = MatchFrameToPoints(*f, points);
   if (static_cast<int>(matches.size()) < shared_->options.reloc_min_matches) return false;
   std::vector<Eigen::Vector3d> bearings, world;
@@ -190,6 +218,7 @@ bool Tracker::Relocalize(VoFrame* f) {
   if (!pose.ok()) return false;
   f->world_from_cam = pose.world_from_cam;
   std::fill(f->map_points.begin(), f->map_points.end(), nullptr);
+  std::fill(f->outlier.begin(), f->outlier.end(), false);
   for (size_t k = 0; k < matches.size(); ++k) {
     if (pose.inliers[k]) f->map_points[matches[k].first] = matches[k].second;
   }

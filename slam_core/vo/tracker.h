@@ -48,6 +48,7 @@ class Tracker {
   const std::shared_ptr<KeyFrame>& reference_keyframe() const { return reference_kf_; }
   int segments_started() const { return segments_started_; }
   int resets() const { return resets_; }
+  int64_t relocalizations() const { return relocalizations_; }
   int64_t planar_init_attempts() const { return initializer_.planar_attempts(); }
   /// Keyframes made per KeyframeReason (index = enum value).
   const KeyframeReasonCounts& keyframe_reasons() const { return keyframe_reasons_; }
@@ -56,6 +57,10 @@ class Tracker {
   bool TrackWithMotionModel(VoFrame* f);
   bool TrackReferenceKeyframe(VoFrame* f);
   bool Relocalize(VoFrame* f);
+  /// Matches the frame to `points` by appearance, then PnP RANSAC + pose optimization.
+  bool RelocalizeAgainst(VoFrame* f, const std::vector<std::shared_ptr<MapPoint>>& points);
+  /// Points of a relocalization candidate and of its best covisible keyframes.
+  std::vector<std::shared_ptr<MapPoint>> PointsAround(const KeyFrame& kf) const;
   int TrackLocalMap(VoFrame* f);
   int OptimizeFramePose(VoFrame* f);
   KeyframeReason NeedNewKeyframe(const VoFrame& f, int inliers) const;
@@ -77,6 +82,7 @@ class Tracker {
   std::shared_ptr<Map> map_;
   TrackingState state_ = TrackingState::kInitializing;
   std::optional<VoFrame> last_frame_;
+  int64_t relocalizations_ = 0;
   std::optional<SE3> velocity_;  ///< cam_from_world(k) * world_from_cam(k-1)
   std::shared_ptr<KeyFrame> reference_kf_;
   int reference_tracked_ = 0;      ///< points the reference keyframe tracked when created

@@ -25,6 +25,9 @@ std::string VoOptions::Validate() const {
   if (local_ba_window < 2) return "local_ba_window must be >= 2";
   if (local_ba_max_fixed < 1) return "local_ba_max_fixed must be >= 1";
   if (redundant_kf_ratio <= 0 || redundant_kf_ratio > 1) return "redundant_kf_ratio must be in (0, 1]";
+  if (reloc_min_matches < 6) return "reloc_min_matches must be >= 6";
+  if (reloc_max_candidates < 1) return "reloc_max_candidates must be >= 1";
+  if (reloc_covisible_keyframes < 0) return "reloc_covisible_keyframes must be >= 0";
   if (lost_frames_before_new_segment < 1) return "lost_frames_before_new_segment must be >= 1";
   return "";
 }

@@ -52,6 +52,10 @@ struct VoOptions {
 
   // Relocalization / new map segment.
   int reloc_min_matches = 30;
+  /// With a vocabulary (bag-of-words relocalization): keyframe candidates tried per frame,
+  /// and covisible keyframes whose points join each candidate's.
+  int reloc_max_candidates = 5;
+  int reloc_covisible_keyframes = 5;
   int lost_frames_before_new_segment = 40;  ///< failed relocalizations before a new segment
   int reset_if_lost_below_keyframes = 5;    ///< lost with <= this many KFs: re-initialize
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "slam_core/map/map.h"
+#include "slam_core/vo/relocalization_index.h"
 #include "slam_core/vo/vo_options.h"
 
 namespace ccm {
@@ -103,6 +104,9 @@ struct VoShared {
   AtomicIdGenerator<MapId> map_ids;
   ChangeLog changes;
   SharedNeighbourhood neighbourhood;
+  /// Bag-of-words index of the local map (null without a vocabulary: brute-force
+  /// relocalization). Synced by the mapping thread, queried by tracking.
+  std::unique_ptr<RelocalizationIndex> relocalization;
 };
 
 }  // namespace ccm

@@ -16,9 +16,11 @@ std::string Write(const std::string& name, const std::string& text) {
 TEST(AgentConfig, LoadsValidFile) {
   AgentConfig c;
   std::string error;
-  ASSERT_TRUE(LoadAgentConfig(Write("a.yaml", "agent_id: 7\nmax_keyframes: 10\nbuffer_keyframes: 10\n"), &c, &error))
+  ASSERT_TRUE(LoadAgentConfig(Write("a.yaml", "agent_id: 7\nmax_keyframes: 10\nbuffer_keyframes: 10\nvocabulary: none\n"), &c,
+                              &error))
       << error;
   EXPECT_EQ(c.agent_id, 7);
+  EXPECT_EQ(c.vocabulary, "none");
   EXPECT_EQ(c.max_keyframes, 10);
   EXPECT_DOUBLE_EQ(c.publish_rate_hz, 4.0);
   EXPECT_TRUE(c.map_sharing);

@@ -140,6 +140,7 @@ int main(int argc, char** argv) {
   auto loaded = ccm::LoadVocabularyFile(a.vocabulary, &error);
   if (!loaded) return Fail(error);
   auto vocab = std::make_shared<const ccm::Vocabulary>(std::move(*loaded));
+  a.replay.agent_vocabulary = vocab;  // agents relocalize with the same vocabulary
 
   std::vector<ccm::replay::ReplayAgentInput> inputs;
   if (!OpenInputs(a, &inputs, &error)) return Fail(error);

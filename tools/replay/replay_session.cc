@@ -58,7 +58,8 @@ class Session {
         *error = in.name + ": invalid camera calibration: " + ValidateIntrinsics(in.source->intrinsics());
         return false;
       }
-      a->vo = std::make_unique<AgentVo>(in.id, a->camera, o_.vo, &a->acks, /*synchronous_mapping=*/!o_.threaded);
+      a->vo = std::make_unique<AgentVo>(in.id, a->camera, o_.vo, &a->acks, /*synchronous_mapping=*/!o_.threaded,
+                                          o_.agent_vocabulary);
       a->packer = std::make_unique<ChangePacker>(in.id, 0.01, o_.new_keyframe_delay_s);
       const int64_t n = in.source->size();
       total_ += o_.max_frames >= 0 && (n < 0 || n > o_.max_frames) ? o_.max_frames : std::max<int64_t>(n, 0);

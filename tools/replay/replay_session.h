@@ -28,6 +28,8 @@ struct ReplayAgentInput {
 
 struct ReplayOptions {
   VoOptions vo;
+  /// The agents' relocalization vocabulary (as ccm_agent's); null: brute force.
+  std::shared_ptr<const Vocabulary> agent_vocabulary;
   ServerOptions server;
   double send_period_s = 0.25;   ///< agent -> server batches, data time (CCM-SLAM: 2-5 Hz)
   /// New keyframes leave once this old (data time), as ccm_agent does (ChangePacker).

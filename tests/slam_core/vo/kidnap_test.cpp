@@ -1,0 +1,90 @@
+// Kidnapped agent: after flying on hall3, the camera jumps back to a place it saw more than
+// 10 s earlier, still inside its local map. Tracking must be lost and relocalization (bag of
+// words over the local map) must find the pose again within a few frames, close to the
+// ground truth, in the same map segment (no new segment).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include "slam_core/eval/alignment.h"
+#include "slam_core/place_recognition/vocabulary_io.h"
+#include "tests/slam_core/vo/vo_sim_run.h"
+
+namespace ccm {
+namespace {
+
+struct KidnapOutcome {
+  int frames_to_relocalize = -1;  ///< frames after the jump until the first tracked one
+  double max_lost_frame_ms = 0.0;  ///< slowest frame while lost (relocalization attempts)
+  double position_error_m = -1.0;  ///< of that first relocalized pose, after alignment
+  int segments = 0;
+  int64_t relocalizations = 0;
+  size_t indexed_keyframes = 0;
+  std::string error;
+};
+
+// Flies `agent` of hall3 for frames [0, jump_from), then continues at frame jump_to.
+KidnapOutcome FlyAndKidnap(const std::shared_ptr<const sim::Simulation>& sim, int agent, int64_t jump_from,
+                           int64_t jump_to, const std::shared_ptr<const Vocabulary>& vocabulary) {
+  KidnapOutcome out;
+  sim::SimFrameSource before(sim, agent, 0, 1, jump_from);
+  std::shared_ptr<const CameraModel> camera(MakeCamera(before.intrinsics()));
+  AckAll acks;
+  VoOptions options;
+  AgentVo vo(static_cast<AgentId>(agent + 1), camera, options, &acks, /*synchronous_mapping=*/true, vocabulary);
+  std::vector<Eigen::Vector3d> est, gt;
+  while (auto f = before.Next()) {
+    const TrackingResult r = vo.TrackFrame(*f);
+    if (r.world_from_cam) {
+      est.push_back(r.world_from_cam->translation());
+      gt.push_back(f->world_from_cam_gt->translation());
+    }
+  }
+  const auto gt_from_est = UmeyamaAlignment(est, gt, /*with_scale=*/true, &out.error);
+  if (!gt_from_est) return out;
+  sim::SimFrameSource after(sim, agent, jump_to, 1, 30);
+  int k = 0;
+  while (auto f = after.Next()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const TrackingResult r = vo.TrackFrame(*f);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    out.max_lost_frame_ms = std::max(out.max_lost_frame_ms, ms);
+    if (r.world_from_cam) {
+      out.frames_to_relocalize = k;
+      out.position_error_m = ((*gt_from_est) * r.world_from_cam->translation() -
+                              f->world_from_cam_gt->translation()).norm();
+      break;
+    }
+    ++k;
+  }
+  const AgentVoStats stats = vo.stats();
+  out.segments = stats.segments;
+  out.relocalizations = stats.relocalizations;
+  out.indexed_keyframes = stats.relocalization_index_size;
+  return out;
+}
+
+TEST(VoKidnap, RelocalizesWithinFiveFramesAfterAJumpBackInsideTheLocalMap) {
+  std::string error;
+  const auto sim = testing::LoadSimulation("hall3", &error);
+  ASSERT_NE(sim, nullptr) << error;
+  auto vocabulary = LoadVocabularyFile(CCM_DEFAULT_VOCABULARY, &error);
+  ASSERT_TRUE(vocabulary) << error;
+  const auto vocab = std::make_shared<const Vocabulary>(std::move(*vocabulary));
+  // 15 s of flight, then back to where the agent was 12 s (240 frames) earlier.
+  const KidnapOutcome o = FlyAndKidnap(sim, 0, 300, 60, vocab);
+  ASSERT_TRUE(o.error.empty()) << o.error;
+  std::printf("[kidnap] relocalized after %d frames, position error %.3f m, segments %d, slowest frame %.1f ms\n",
+              o.frames_to_relocalize, o.position_error_m, o.segments, o.max_lost_frame_ms);
+  ASSERT_GE(o.frames_to_relocalize, 0) << "never relocalized";
+  EXPECT_GE(o.frames_to_relocalize, 1) << "a jump of 12 s must lose tracking first";
+  EXPECT_LE(o.frames_to_relocalize, 5);
+  EXPECT_LT(o.position_error_m, 0.05);
+  EXPECT_EQ(o.segments, 1) << "relocalization, not a new segment";
+  EXPECT_EQ(o.relocalizations, 1);
+  EXPECT_GT(o.indexed_keyframes, 10u) << "the bag-of-words index follows the local map";
+}
+
+}  // namespace
+}  // namespace ccm
