@@ -26,8 +26,15 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   rt::YamlReader r(node, context);
   r.Get("features", &vo->orb.num_features);
   r.Get("init_features", &vo->init_num_features);
+  r.Get("fast_threshold", &vo->orb.ini_fast_threshold);
+  r.Get("fast_min_threshold", &vo->orb.min_fast_threshold);
+  r.Get("fast_max_threshold", &vo->orb.max_fast_threshold);
+  r.Get("fast_adapt_high_ratio", &vo->orb.adapt_high_ratio);
+  r.Get("fast_adapt_low_ratio", &vo->orb.adapt_low_ratio);
   r.Get("init_min_homography_ratio", &vo->init_min_homography_ratio);
   r.Get("init_min_parallax_deg", &vo->init_min_parallax_deg);
+  r.Get("init_fallback_homography_ratio", &vo->init_fallback_homography_ratio);
+  r.Get("init_homography_min_parallax_deg", &vo->init_homography_min_parallax_deg);
   r.Get("kf_min_frames", &vo->keyframe.min_frames);
   r.Get("kf_max_frames", &vo->keyframe.max_frames);
   r.Get("kf_tracked_ratio", &vo->keyframe.tracked_ratio);

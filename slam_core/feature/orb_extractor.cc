@@ -58,6 +58,13 @@ std::string OrbExtractorOptions::Validate() const {
            " (orientation and descriptor patches)";
   }
   if (cell_size_px < 8) return "cell_size_px must be >= 8";
+  if (!(adapt_high_ratio >= 0.0)) return "adapt_high_ratio must be >= 0 (0: fixed threshold)";
+  if (adapt_high_ratio > 0.0 && !(adapt_low_ratio > 0.0 && adapt_low_ratio < adapt_high_ratio)) {
+    return "adapt_low_ratio must be in (0, adapt_high_ratio)";
+  }
+  if (max_fast_threshold < ini_fast_threshold || max_fast_threshold > 254) {
+    return "max_fast_threshold must be in [ini_fast_threshold, 254]";
+  }
   return "";
 }
 
@@ -65,7 +72,8 @@ OrbExtractor::OrbExtractor(const OrbExtractorOptions& options)
     : options_(options),
       pyramid_(ScalePyramid::Make(options.num_levels, options.scale_factor)),
       features_per_level_(
-          FeaturesPerLevel(options.num_features, options.num_levels, options.scale_factor)) {
+          FeaturesPerLevel(options.num_features, options.num_levels, options.scale_factor)),
+      level_threshold_(options.num_levels, options.ini_fast_threshold) {
   assert(options_.Validate().empty());
 }
 
@@ -83,13 +91,15 @@ void OrbExtractor::BuildPyramid(const cv::Mat& gray) {
   }
 }
 
-void OrbExtractor::DetectFast(const cv::Mat& level, std::vector<cv::KeyPoint>* corners) const {
+size_t OrbExtractor::DetectFast(const cv::Mat& level, int threshold, std::vector<cv::KeyPoint>* corners) const {
   const int b = options_.edge_border_px;
   const int x1 = level.cols - b, y1 = level.rows - b;
   corners->clear();
-  FastInRect(level, b, b, x1, y1, options_.ini_fast_threshold, corners);
-  // Cells without a corner at the initial threshold get a second chance at the low one, so
-  // weakly textured regions still contribute keypoints.
+  FastInRect(level, b, b, x1, y1, threshold, corners);
+  const size_t found = corners->size();
+  // Cells without a corner at the level's threshold get a second chance at the initial one
+  // (if the level's was raised) and then at the low one, so weakly textured regions still
+  // contribute keypoints.
   const int cell = options_.cell_size_px;
   const int cols = (x1 - b + cell - 1) / cell, rows = (y1 - b + cell - 1) / cell;
   std::vector<int> count(cols * rows, 0);
@@ -98,14 +108,32 @@ void OrbExtractor::DetectFast(const cv::Mat& level, std::vector<cv::KeyPoint>* c
     const int cy = std::min(rows - 1, (static_cast<int>(kp.pt.y) - b) / cell);
     ++count[cy * cols + cx];
   }
-  if (options_.min_fast_threshold >= options_.ini_fast_threshold) return;
   for (int cy = 0; cy < rows; ++cy) {
     for (int cx = 0; cx < cols; ++cx) {
       if (count[cy * cols + cx] > 0) continue;
       const int xa = b + cx * cell, ya = b + cy * cell;
-      FastInRect(level, xa, ya, std::min(xa + cell, x1), std::min(ya + cell, y1),
-                 options_.min_fast_threshold, corners);
+      const int xb = std::min(xa + cell, x1), yb = std::min(ya + cell, y1);
+      const size_t before = corners->size();
+      if (threshold > options_.ini_fast_threshold) {
+        FastInRect(level, xa, ya, xb, yb, options_.ini_fast_threshold, corners);
+      }
+      if (corners->size() == before && options_.min_fast_threshold < options_.ini_fast_threshold) {
+        FastInRect(level, xa, ya, xb, yb, options_.min_fast_threshold, corners);
+      }
     }
+  }
+  return found;
+}
+
+void OrbExtractor::AdaptThreshold(int l, size_t found) {
+  if (options_.adapt_high_ratio <= 0.0) return;
+  int& t = level_threshold_[l];
+  const double target = std::max(features_per_level_[l], 1);
+  const int step = std::max(1, t / 8);
+  if (found > options_.adapt_high_ratio * target) {
+    t = std::min(options_.max_fast_threshold, t + step);
+  } else if (found < options_.adapt_low_ratio * target) {
+    t = std::max(options_.ini_fast_threshold, t - step);
   }
 }
 
@@ -136,7 +164,7 @@ FrameFeatures OrbExtractor::Extract(const cv::Mat& image) {
       carry = target;
       continue;
     }
-    DetectFast(level, &corners);
+    AdaptThreshold(l, DetectFast(level, level_threshold_[l], &corners));
     const std::vector<int> kept = DistributeQuadtree(
         corners, static_cast<float>(b), static_cast<float>(b), static_cast<float>(level.cols - b),
         static_cast<float>(level.rows - b), target);

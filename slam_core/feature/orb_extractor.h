@@ -2,7 +2,8 @@
 // threshold fallback, a quadtree per level that keeps the strongest corner of each node so
 // keypoints spread over the whole image, intensity-centroid orientation and steered BRIEF.
 // Owned by one tracking thread: Extract() reuses internal buffers, so use one extractor per
-// thread. Output is deterministic for a given image and options.
+// thread. Output is deterministic for a given image sequence and options (the adaptive FAST
+// threshold carries over from one frame to the next).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -21,6 +22,17 @@ struct OrbExtractorOptions {
   int min_fast_threshold = 7;   ///< fallback threshold for cells where the first finds none
   int edge_border_px = 19;      ///< keypoints keep this distance to each level's border [px]
   int cell_size_px = 30;        ///< FAST grid cell size on every level [px]
+  /// Adaptive FAST threshold per pyramid level. On dense texture the fixed threshold finds
+  /// ~20 corners per keypoint kept, and scoring and suppressing them was most of the
+  /// extraction time. After each frame, a level that found more than adapt_high_ratio x
+  /// its keypoint target raises its threshold for the next frame, one with fewer than
+  /// adapt_low_ratio x lowers it again, never below ini_fast_threshold (weak texture is
+  /// handled exactly as with a fixed threshold) nor above max_fast_threshold. Cells left
+  /// empty by a raised threshold are retried at ini_fast_threshold, then at
+  /// min_fast_threshold. adapt_high_ratio = 0: fixed threshold.
+  double adapt_high_ratio = 4.0;
+  double adapt_low_ratio = 2.0;
+  int max_fast_threshold = 60;
 
   /// Empty if usable, else what is wrong ("num_levels must be in [1, 32]").
   std::string Validate() const;
@@ -46,13 +58,17 @@ class OrbExtractor {
  private:
   void BuildPyramid(const cv::Mat& gray);
   /// FAST corners of one level (level coordinates), ini threshold with per-cell fallback.
-  void DetectFast(const cv::Mat& level, std::vector<cv::KeyPoint>* corners) const;
+  /// Returns how many corners the level's own threshold found (before cell retries).
+  size_t DetectFast(const cv::Mat& level, int threshold, std::vector<cv::KeyPoint>* corners) const;
+  /// Moves level l's threshold towards adapt_low..high_ratio x its target.
+  void AdaptThreshold(int l, size_t found);
 
   OrbExtractorOptions options_;
   ScalePyramid pyramid_;
   std::vector<int> features_per_level_;
   std::vector<cv::Mat> levels_;
   cv::Mat blurred_;
+  std::vector<int> level_threshold_;  // adaptive FAST threshold per level
 };
 
 }  // namespace ccm

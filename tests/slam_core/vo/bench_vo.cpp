@@ -17,6 +17,10 @@ int main(int argc, char** argv) {
   app.add_option("--agent", agent, "agent index")->capture_default_str();
   app.add_option("--frames", frames, "frames to run (-1: whole flight)")->capture_default_str();
   app.add_option("--sizes", sizes, "local map sizes N to test")->capture_default_str();
+  double fast_adapt = -1.0;
+  app.add_option("--fast-adapt", fast_adapt,
+                 "ORB: adaptive FAST threshold band [H/2, H] x target corners per level; 0 = fixed threshold "
+                 "(default: the extractor's)");
   CLI11_PARSE(app, argc, argv);
 
   std::string error;
@@ -32,6 +36,10 @@ int main(int argc, char** argv) {
   for (const int n : sizes) {
     ccm::VoOptions o;
     o.bound.max_keyframes = n;
+    if (fast_adapt >= 0.0) {
+      o.orb.adapt_high_ratio = fast_adapt;
+      o.orb.adapt_low_ratio = fast_adapt / 2;
+    }
     o.bound.max_unacked_buffer = n;
     ccm::AckAll acks;
     const auto run = ccm::testing::RunVoOnSim(sim, agent, frames, o, acks);
