@@ -70,6 +70,9 @@ struct ServerCommStats {
   int64_t refused_agents = 0;         ///< messages from agents beyond max_agents
   int64_t rejected = 0;
   std::map<std::string, int64_t> rejected_by_kind;
+  /// Messages whose agent id is not the one of the partition they were written in
+  /// (another participant claiming to be that agent; with security: impossible to match).
+  int64_t wrong_partition = 0;
   double elapsed_s = 0.0;
   double last_data_s = -1.0;          ///< last keyframe/point/update received (-1: none yet)
 };
@@ -126,6 +129,8 @@ class ServerComm {
   bool Intake();  // returns whether anything arrived
   bool Admit(AgentId agent, const char* what);
   void Reject(AgentId agent, const std::string& reason);
+  /// True when `writer` writes in agent `agent`'s partition; otherwise counted and false.
+  bool FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer, AgentId agent, const char* what);
   AgentBatch& BatchFor(std::map<BatchKey, AgentBatch>* batches, AgentId agent, MapId segment);
   void SubmitBatches(std::map<BatchKey, AgentBatch>* batches);
   /// A keyframe update for a keyframe still held here changes the held data; true if so.
