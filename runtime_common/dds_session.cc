@@ -71,6 +71,20 @@ int AgentIdOfPartition(const std::string& partition) {
 
 bool ApplySecurity(const SessionOptions& options, dds::DomainParticipantQos* qos, std::string* error) {
   if (options.security_dir.empty()) return true;
+  // Fast DDS 2.9.1 sends each authentication handshake message (certificate + signed
+  // permissions, ~5 kB) in ONE datagram: it does not fragment builtin messages. With a
+  // smaller maxMessageSize the handshake fails silently ("Cannot serialize
+  // ParticipantGenericMessage") and nothing ever matches; say so up front instead.
+  // Measured: 4500 B fails, 6000 B works; 8192 leaves room for longer permissions.
+  constexpr uint32_t kMinSecureMessageSize = 8192;
+  for (const auto& transport : qos->transport().user_transports) {
+    if (transport->maxMessageSize < kMinSecureMessageSize) {
+      *error = "security: the QoS file's transport has maxMessageSize " + std::to_string(transport->maxMessageSize) +
+               " B; the secure handshake needs >= " + std::to_string(kMinSecureMessageSize) +
+               " B (Fast DDS 2.9 does not fragment it; docs/security.md, 'Wi-Fi')";
+      return false;
+    }
+  }
   // The security profile lives in its own file (plugins only, no endpoint QoS), so it adds
   // to whichever QoS file the binary uses (default.xml, wifi.xml, ...). Its profile names
   // do not clash with those files', so loading it next to them is safe (once per process).

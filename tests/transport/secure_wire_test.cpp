@@ -8,7 +8,10 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+
 #include <filesystem>
+#include <set>
 #include <thread>
 
 #include "idl/ccm_msgsPubSubTypes.h"
@@ -145,6 +148,30 @@ TEST(SecureWire, MissingSecurityFileIsAClearError) {
   std::string error;
   EXPECT_FALSE(rt::DdsSession::Create(options, &error));
   EXPECT_NE(error.find("permissions.p7s"), std::string::npos) << error;
+}
+
+// A transport with wifi.xml's 1400 B datagrams cannot carry the handshake: refused up front,
+// not a silent no-match. (One QoS file per process, so the descriptor is built here.)
+TEST(SecureWire, TooSmallDatagramsAreAClearError) {
+  rt::SessionOptions options;
+  options.security_dir = Pki() + "/agent_1";
+  eprosima::fastdds::dds::DomainParticipantQos qos;
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->maxMessageSize = 1400;
+  qos.transport().user_transports.push_back(udp);
+  qos.transport().use_builtin_transports = false;
+  std::string error;
+  EXPECT_FALSE(rt::ApplySecurity(options, &qos, &error));
+  EXPECT_NE(error.find("maxMessageSize 1400"), std::string::npos) << error;
+  udp->maxMessageSize = 65500;
+  EXPECT_TRUE(rt::ApplySecurity(options, &qos, &error)) << error;
+  std::set<std::string> names;
+  for (const auto& p : qos.properties().properties()) names.insert(p.name());
+  for (const char* name : {"dds.sec.auth.plugin", "dds.sec.access.plugin", "dds.sec.crypto.plugin",
+                           "dds.sec.auth.builtin.PKI-DH.private_key",
+                           "dds.sec.access.builtin.Access-Permissions.permissions"}) {
+    EXPECT_EQ(names.count(name), 1u) << name;
+  }
 }
 
 TEST(SecureWire, AgentIdOfPartition) {
