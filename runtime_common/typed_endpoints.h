@@ -52,6 +52,13 @@ class MatchTracker {
   int matched_ = 0;
 };
 
+/// With security, the usual reason an endpoint cannot be created: the permissions.
+inline std::string SecurityHint(const DdsSession& session, const std::string& partition) {
+  if (session.options().security_dir.empty()) return "";
+  return " in partition '" + partition + "': the permissions of '" + session.options().security_dir +
+         "' do not allow it (an agent id that is not the certificate's? see the Fast DDS message above)";
+}
+
 template <typename PubSubT>
 class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
  public:
@@ -79,7 +86,8 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
     }
     w->writer_ = w->publisher_->create_datawriter(topic, qos, w.get(), dds::StatusMask::publication_matched());
     if (w->writer_ == nullptr) {
-      *error = "could not create a data writer on '" + topic_name + "' with profile '" + profile + "'";
+      *error = "could not create a data writer on '" + topic_name + "' with profile '" + profile + "'" +
+               SecurityHint(session, partition);
       return nullptr;
     }
     return w;
@@ -171,7 +179,8 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
                                  << dds::StatusMask::sample_lost();
     r->reader_ = r->subscriber_->create_datareader(topic, qos, r.get(), mask);
     if (r->reader_ == nullptr) {
-      *error = "could not create a data reader on '" + topic_name + "' with profile '" + profile + "'";
+      *error = "could not create a data reader on '" + topic_name + "' with profile '" + profile + "'" +
+               SecurityHint(session, partition);
       return nullptr;
     }
     return r;

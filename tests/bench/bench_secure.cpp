@@ -2,8 +2,8 @@
 // process (an agent writing keyframes in its partition, the server reading), over UDP
 // loopback, once without and once with DDS-Security (certificates from --pki, made by
 // deploy/security/make-pki.sh). Prints, per mode: time to match (discovery + handshake),
-// bytes and datagrams on the wire for a burst of keyframes, and the one-way latency of
-// keyframes written one at a time. No pass/fail.
+// bytes and datagrams on the wire for a burst of keyframes and per small keyframe update,
+// and the one-way latency of keyframes written one at a time. No pass/fail.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -26,6 +26,7 @@ namespace msg = ccm::msg;
 struct Numbers {
   double match_s = 0, burst_s = 0, wire_mb = 0, payload_mb = 0;
   std::uint64_t datagrams = 0;
+  double small_wire_b = 0, small_payload_b = 0;  ///< per keyframe update (148 B), one per datagram
   std::vector<double> latency_ms;
 };
 
@@ -68,6 +69,29 @@ Numbers Run(const std::string& qos, const std::string& pki, int domain, int burs
   n.datagrams = server->fault_counters().datagrams_received.load() - datagrams0;
   for (const auto& t : agent->TrafficSnapshot()) n.payload_mb += t.payload_bytes / 1e6;
 
+  // Small samples: keyframe updates written one at a time, so each travels alone (the
+  // per-sample cost of the secure submessage and payload wrapping shows in full).
+  {
+    auto up_reader = rt::TypedReader<msg::KeyframeUpdatePubSubType>::Create(
+        *server, rt::kTopicKeyframeUpdates, rt::kProfileUpdateReader, {100000, rt::OverflowPolicy::kDropOldest},
+        &error, rt::kAllAgentsPartition);
+    auto up_writer = rt::TypedWriter<msg::KeyframeUpdatePubSubType>::Create(
+        *agent, rt::kTopicKeyframeUpdates, rt::kProfileUpdateWriter, &error, rt::AgentPartition(1));
+    if (!up_reader || !up_writer || !up_writer->WaitForMatch(1, std::chrono::seconds(30))) {
+      throw std::runtime_error("no match on updates: " + error);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    constexpr int kUpdates = 200;
+    const auto b0 = server->fault_counters().bytes_received.load();
+    int got = 0;
+    for (int i = 0; i < kUpdates; ++i) {
+      up_writer->Write(ccm::synthetic::MakeKeyframeUpdate(1, i));
+      if (up_reader->Pop(std::chrono::milliseconds(200))) ++got;
+    }
+    n.small_wire_b = double(server->fault_counters().bytes_received.load() - b0) / std::max(1, got);
+    n.small_payload_b = double(up_writer->counters().payload_bytes) / kUpdates;
+  }
+
   for (int i = 0; i < pings; ++i) {
     const msg::KeyframeFull kf = ccm::synthetic::MakeKeyframe(1, burst + i, features, 300);
     const auto sent = Clock::now();
@@ -109,7 +133,12 @@ int main(int argc, char** argv) {
                   n.wire_mb, static_cast<unsigned long long>(n.datagrams), n.burst_s, Percentile(n.latency_ms, 0.5),
                   Percentile(n.latency_ms, 0.95), n.latency_ms.empty() ? 0.0 : n.latency_ms.back());
     }
-    std::printf("secure/plain: wire bytes x%.3f, p50 latency +%.2f ms\n", secure.wire_mb / plain.wire_mb,
+    for (const auto& [name, n] : {std::pair<const char*, const Numbers&>{"plain", plain}, {"secure", secure}}) {
+      std::printf("%-8s keyframe update: %.0f B payload, %.0f B on the wire per sample (incl. heartbeats)\n", name,
+                  n.small_payload_b, n.small_wire_b);
+    }
+    std::printf("secure/plain: keyframe burst wire bytes x%.3f, update wire bytes x%.2f, p50 latency %+.2f ms\n",
+                secure.wire_mb / plain.wire_mb, secure.small_wire_b / plain.small_wire_b,
                 Percentile(secure.latency_ms, 0.5) - Percentile(plain.latency_ms, 0.5));
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
