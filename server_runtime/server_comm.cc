@@ -139,8 +139,8 @@ bool ServerComm::FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer
   if (partition && rt::AgentIdOfPartition(*partition) == static_cast<int>(agent)) return true;
   // Not charged to `agent`: the sender is someone else (or not yet discovered, then the
   // agent resends what goes unacknowledged).
-  const std::string where = partition ? "partition '" + *partition + "'" : "an undiscovered writer";
-  if (logged_kinds_.insert("wrong partition").second) {
+  const std::string where = partition ? "partition '" + *partition + "'" : "a writer not (yet) discovered";
+  if (logged_kinds_.insert(partition ? "wrong partition" : "undiscovered writer").second) {
     spdlog::warn("ignored a {} claiming agent {} from {} (only agent {}'s partition may carry its data; further "
                  "ones are only counted)",
                  what, agent, where, agent);
@@ -211,7 +211,10 @@ bool ServerComm::Intake() {
     data = true;
     auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe") || !Admit(agent, "keyframe")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe") ||
+        !Admit(agent, "keyframe")) {
+      continue;
+    }
     KeyframeId ref;
     auto d = conv::FromMsg(*m, &cameras_, &error, &ref);
     if (!d) {
@@ -237,7 +240,10 @@ bool ServerComm::Intake() {
     data = true;
     auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map points") || !Admit(agent, "map points")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map points") ||
+        !Admit(agent, "map points")) {
+      continue;
+    }
     if (m->protocol_version() != msg::kProtocolVersion) {
       Reject(agent, VersionMismatch("map point batch", m->protocol_version()));
       continue;
@@ -268,7 +274,10 @@ bool ServerComm::Intake() {
     data = true;
     auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe update") || !Admit(agent, "keyframe update")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe update") ||
+        !Admit(agent, "keyframe update")) {
+      continue;
+    }
     auto d = conv::FromMsg(*m, &error);
     if (!d) {
       Reject(agent, error);
@@ -291,7 +300,10 @@ bool ServerComm::Intake() {
     data = true;
     auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map point updates") || !Admit(agent, "map point updates")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map point updates") ||
+        !Admit(agent, "map point updates")) {
+      continue;
+    }
     if (m->protocol_version() != msg::kProtocolVersion) {
       Reject(agent, VersionMismatch("map point update batch", m->protocol_version()));
       continue;

@@ -2,7 +2,8 @@
 // here, Start/Stop) does all of it, so DDS receive threads never wait on SLAM work:
 //  * intake: the readers' listeners only enqueue (bounded queues; runtime_common/
 //    typed_endpoints.h). The comm thread pops, converts and validates every message
-//    (conv::FromMsg: a rejection is counted and logged once per kind), admits agents
+//    (conv::FromMsg: a rejection is counted and logged once per kind; a message whose agent
+//    id is not the one of its writer's partition agent_<id> is dropped: docs/security.md), admits agents
 //    (protocol version, max_agents), groups each agent's data per map segment into an
 //    AgentBatch and submits it to the back-end, whose bounded per-agent queue decouples the
 //    agent's handler thread (BackendRunner). A slow handler therefore only fills its own
