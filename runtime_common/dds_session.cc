@@ -5,6 +5,7 @@
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
@@ -113,7 +114,13 @@ bool ApplySecurity(const SessionOptions& options, dds::DomainParticipantQos* qos
     *error = "participant profile '" + options.security_profile + "' not found in '" + file + "'";
     return false;
   }
-  for (const auto& property : secure.properties().properties()) qos->properties().properties().push_back(property);
+  // The profile's own properties only: both QoS carry Fast DDS' defaults (physical_data.*).
+  auto& properties = qos->properties().properties();
+  for (const auto& property : secure.properties().properties()) {
+    const bool present = std::any_of(properties.begin(), properties.end(),
+                                     [&](const auto& p) { return p.name() == property.name(); });
+    if (!present) properties.push_back(property);
+  }
   // The six files of one participant, as deploy/security/make-pki.sh lays them out.
   const std::filesystem::path dir = std::filesystem::absolute(options.security_dir).lexically_normal();
   const std::pair<const char*, const char*> files[] = {

@@ -166,7 +166,9 @@ TEST(SecureWire, TooSmallDatagramsAreAClearError) {
   udp->maxMessageSize = 65500;
   EXPECT_TRUE(rt::ApplySecurity(options, &qos, &error)) << error;
   std::set<std::string> names;
-  for (const auto& p : qos.properties().properties()) names.insert(p.name());
+  for (const auto& p : qos.properties().properties()) {
+    EXPECT_TRUE(names.insert(p.name()).second) << "property twice: " << p.name();
+  }
   for (const char* name : {"dds.sec.auth.plugin", "dds.sec.access.plugin", "dds.sec.crypto.plugin",
                            "dds.sec.auth.builtin.PKI-DH.private_key",
                            "dds.sec.access.builtin.Access-Permissions.permissions"}) {
