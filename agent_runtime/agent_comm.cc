@@ -33,24 +33,27 @@ std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::Sess
   std::unique_ptr<AgentComm> c(new AgentComm(config, std::move(session), vo, acks));
   rt::DdsSession& s = *c->session_;
   using namespace rt;
-  c->keyframe_writer_ = TypedWriter<msg::KeyframeFullPubSubType>::Create(s, kTopicKeyframes, kProfileNewDataWriter, error);
+  // All of this agent's data goes in its own partition: the server checks it, and the
+  // secure profile's permissions allow agent <id> to write in agent_<id> only.
+  const std::string partition = AgentPartition(config.agent_id);
+  c->keyframe_writer_ = TypedWriter<msg::KeyframeFullPubSubType>::Create(s, kTopicKeyframes, kProfileNewDataWriter, error, partition);
   if (!c->keyframe_writer_) return nullptr;
-  c->point_writer_ = TypedWriter<msg::MapPointBatchPubSubType>::Create(s, kTopicMapPoints, kProfileNewDataWriter, error);
+  c->point_writer_ = TypedWriter<msg::MapPointBatchPubSubType>::Create(s, kTopicMapPoints, kProfileNewDataWriter, error, partition);
   if (!c->point_writer_) return nullptr;
   c->kf_update_writer_ =
-      TypedWriter<msg::KeyframeUpdatePubSubType>::Create(s, kTopicKeyframeUpdates, kProfileUpdateWriter, error);
+      TypedWriter<msg::KeyframeUpdatePubSubType>::Create(s, kTopicKeyframeUpdates, kProfileUpdateWriter, error, partition);
   if (!c->kf_update_writer_) return nullptr;
   c->mp_update_writer_ =
-      TypedWriter<msg::MapPointUpdateBatchPubSubType>::Create(s, kTopicMapPointUpdates, kProfileUpdateWriter, error);
+      TypedWriter<msg::MapPointUpdateBatchPubSubType>::Create(s, kTopicMapPointUpdates, kProfileUpdateWriter, error, partition);
   if (!c->mp_update_writer_) return nullptr;
-  c->status_writer_ = TypedWriter<msg::AgentStatusPubSubType>::Create(s, kTopicAgentStatus, kProfileStatusWriter, error);
+  c->status_writer_ = TypedWriter<msg::AgentStatusPubSubType>::Create(s, kTopicAgentStatus, kProfileStatusWriter, error, partition);
   if (!c->status_writer_) return nullptr;
   // Only this agent's server messages: the server writes them in this agent's partition.
   // (Not a content filter: Fast DDS 2.9 mis-filters fragmented samples, eProsima/Fast-DDS#6017,
   // and a neighbourhood is ~150 fragments.)
   c->server_reader_ = TypedReader<msg::ServerToAgentPubSubType>::Create(
       s, kTopicServerToAgent, kProfileServerReader, {16, OverflowPolicy::kDropOldest}, error,
-      AgentPartition(config.agent_id));
+      partition);
   if (!c->server_reader_) return nullptr;
   return c;
 }

@@ -61,6 +61,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("agent_id", &config->agent_id);
   r.Get("domain_id", &config->domain_id);
   r.Get("qos_file", &config->qos_file);
+  r.Get("security_dir", &config->security_dir);
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("max_bytes_per_cycle", &config->max_bytes_per_cycle);

@@ -12,6 +12,7 @@ struct AgentConfig {
   int agent_id = 1;                    // 1..65535, unique in the team
   int domain_id = 0;                   // DDS domain, 0..232
   std::string qos_file;                // empty: $FASTRTPS_DEFAULT_PROFILES_FILE or qos_profiles/default.xml
+  std::string security_dir;            // DDS-Security files of this participant (make-pki.sh); empty: no security
   std::string log_level = "info";
   double publish_rate_hz = 4.0;        // agent -> server messages per second (CCM-SLAM: 2-5 Hz)
   int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)

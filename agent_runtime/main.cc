@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   auto* id_opt = app.add_option("--agent-id", config.agent_id, "agent id, 1..65535 (overrides the config)");
   auto* domain_opt = app.add_option("--domain", config.domain_id, "DDS domain id (overrides the config)");
   auto* qos_opt = app.add_option("--qos", config.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
+  auto* security_opt = app.add_option("--security-dir", config.security_dir,
+                                     "DDS-Security directory of this participant (docs/security.md; overrides the config)");
   auto* log_opt = app.add_option("--log-level", config.log_level, "trace, debug, info, warn, error, off");
   app.add_flag("--standalone", standalone, "run the VO without DDS (no server)");
   app.add_option("--dataset", run.dataset, "dataset folder (EuRoC, TUM RGB-D or KITTI odometry)");
@@ -73,6 +75,7 @@ int main(int argc, char** argv) {
     if (*id_opt) config.agent_id = cli.agent_id;
     if (*domain_opt) config.domain_id = cli.domain_id;
     if (*qos_opt) config.qos_file = cli.qos_file;
+    if (*security_opt) config.security_dir = cli.security_dir;
     if (*log_opt) config.log_level = cli.log_level;
     if (*vocab_opt) config.vocabulary = cli.vocabulary;
   }
@@ -106,6 +109,7 @@ int main(int argc, char** argv) {
   }
   session.domain_id = config.domain_id;
   session.qos_file = config.qos_file;
+  session.security_dir = config.security_dir;
   // Ids of this process' life: a restarted agent with the same id must not reuse keyframe,
   // point or segment ids the server already holds (it would take new keyframes for resends).
   // Seconds since 2024 (segments, 32 bits on the wire) and 100000 ids per second of clock

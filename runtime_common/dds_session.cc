@@ -1,9 +1,11 @@
 #include "runtime_common/dds_session.h"
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/rtps/builtin/data/WriterProxyData.h>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
@@ -54,6 +56,96 @@ std::string DefaultQosFile() {
   return std::string(CCM_QOS_DIR) + "/default.xml";
 }
 
+int AgentIdOfPartition(const std::string& partition) {
+  static const std::string prefix = "agent_";
+  if (partition.size() <= prefix.size() || partition.size() > prefix.size() + 5 ||
+      partition.compare(0, prefix.size(), prefix) != 0) {
+    return -1;
+  }
+  int id = 0;
+  for (size_t i = prefix.size(); i < partition.size(); ++i) {
+    if (partition[i] < '0' || partition[i] > '9') return -1;
+    id = id * 10 + (partition[i] - '0');
+  }
+  return id >= 1 && id <= 65535 ? id : -1;
+}
+
+bool ApplySecurity(const SessionOptions& options, dds::DomainParticipantQos* qos, std::string* error) {
+  if (options.security_dir.empty()) return true;
+  // Fast DDS 2.9.1 sends each authentication handshake message (certificate + signed
+  // permissions, ~5 kB) in ONE datagram: it does not fragment builtin messages. With a
+  // smaller maxMessageSize the handshake fails silently ("Cannot serialize
+  // ParticipantGenericMessage") and nothing ever matches; say so up front instead.
+  // Measured: 4500 B fails, 6000 B works; 8192 leaves room for longer permissions.
+  constexpr uint32_t kMinSecureMessageSize = 8192;
+  for (const auto& transport : qos->transport().user_transports) {
+    if (transport->maxMessageSize < kMinSecureMessageSize) {
+      *error = "security: the QoS file's transport has maxMessageSize " + std::to_string(transport->maxMessageSize) +
+               " B; the secure handshake needs >= " + std::to_string(kMinSecureMessageSize) +
+               " B (Fast DDS 2.9 does not fragment it; docs/security.md, 'Wi-Fi')";
+      return false;
+    }
+  }
+  // The security profile lives in its own file (plugins only, no endpoint QoS), so it adds
+  // to whichever QoS file the binary uses (default.xml, wifi.xml, ...). Its profile names
+  // do not clash with those files', so loading it next to them is safe (once per process).
+  const std::string file = options.security_file.empty() ? std::string(CCM_QOS_DIR) + "/secure.xml"
+                                                         : options.security_file;
+  {
+    static std::mutex mutex;
+    static std::set<std::string> loaded;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (loaded.count(file) == 0) {
+      if (!std::ifstream(file).good()) {
+        *error = "security profile file '" + file + "' does not exist or cannot be read";
+        return false;
+      }
+      if (dds::DomainParticipantFactory::get_instance()->load_XML_profiles_file(file) != ReturnCode_t::RETCODE_OK) {
+        *error = "security profile file '" + file + "' was rejected by the Fast DDS XML parser";
+        return false;
+      }
+      loaded.insert(file);
+    }
+  }
+  dds::DomainParticipantQos secure;
+  if (dds::DomainParticipantFactory::get_instance()->get_participant_qos_from_profile(options.security_profile,
+                                                                                      secure) !=
+      ReturnCode_t::RETCODE_OK) {
+    *error = "participant profile '" + options.security_profile + "' not found in '" + file + "'";
+    return false;
+  }
+  // The profile's own properties only: both QoS carry Fast DDS' defaults (physical_data.*).
+  auto& properties = qos->properties().properties();
+  for (const auto& property : secure.properties().properties()) {
+    const bool present = std::any_of(properties.begin(), properties.end(),
+                                     [&](const auto& p) { return p.name() == property.name(); });
+    if (!present) properties.push_back(property);
+  }
+  // The six files of one participant, as deploy/security/make-pki.sh lays them out.
+  const std::filesystem::path dir = std::filesystem::absolute(options.security_dir).lexically_normal();
+  const std::pair<const char*, const char*> files[] = {
+      {"dds.sec.auth.builtin.PKI-DH.identity_ca", "identity_ca.pem"},
+      {"dds.sec.auth.builtin.PKI-DH.identity_certificate", "cert.pem"},
+      {"dds.sec.auth.builtin.PKI-DH.private_key", "key.pem"},
+      {"dds.sec.access.builtin.Access-Permissions.permissions_ca", "permissions_ca.pem"},
+      {"dds.sec.access.builtin.Access-Permissions.governance", "governance.p7s"},
+      {"dds.sec.access.builtin.Access-Permissions.permissions", "permissions.p7s"}};
+  for (const auto& [property, name] : files) {
+    const std::filesystem::path path = dir / name;
+    if (!std::ifstream(path).good()) {
+      *error = "security: '" + path.string() + "' does not exist or cannot be read (security_dir '" +
+               options.security_dir + "' must hold what deploy/security/make-pki.sh writes for this participant)";
+      return false;
+    }
+    qos->properties().properties().emplace_back(property, "file://" + path.string());
+  }
+  // Optional: the CA's list of revoked certificates (make-pki.sh --revoke).
+  if (const std::filesystem::path crl = dir / "identity_crl.pem"; std::filesystem::exists(crl)) {
+    qos->properties().properties().emplace_back("dds.sec.auth.builtin.PKI-DH.identity_crl", "file://" + crl.string());
+  }
+  return true;
+}
+
 namespace {
 
 // Wraps every UDPv4 transport of the profile into the fault-injection transport and drops
@@ -95,12 +187,21 @@ std::unique_ptr<DdsSession> DdsSession::Create(const SessionOptions& options, st
     return nullptr;
   }
   qos.name(options.participant_name);
+  if (!ApplySecurity(options, &qos, error)) return nullptr;
   std::unique_ptr<DdsSession> session(new DdsSession(options));
   session->options_.qos_file = qos_file;
+  session->fault_counters_->watch_pattern = options.wire_watch_pattern;
   if (options.fault.enabled() || options.count_wire) InstallFaultTransport(&qos, options.fault, session->fault_counters_);
-  session->participant_ = factory->create_participant(options.domain_id, qos);
+  // The listener only records discovered writers' partitions; no status callbacks.
+  session->participant_ =
+      factory->create_participant(options.domain_id, qos, session.get(), dds::StatusMask::none());
   if (session->participant_ == nullptr) {
     *error = "could not create the DDS participant on domain " + std::to_string(options.domain_id);
+    if (!options.security_dir.empty()) {
+      *error += " with security from '" + options.security_dir +
+                "' (see the Fast DDS security messages above: a key that does not match the certificate, a "
+                "certificate or document not signed by the given CA, or expired permissions)";
+    }
     return nullptr;
   }
   session->publisher_ = session->participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
@@ -114,6 +215,7 @@ std::unique_ptr<DdsSession> DdsSession::Create(const SessionOptions& options, st
 
 DdsSession::~DdsSession() {
   if (participant_ == nullptr) return;
+  participant_->set_listener(nullptr);
   // Endpoints were deleted by their owners; what is left (publisher, subscriber, topics)
   // goes with the participant.
   participant_->delete_contained_entities();
@@ -159,6 +261,24 @@ dds::Topic* DdsSession::GetTopic(const std::string& name, dds::TypeSupport type,
   }
   topics_[name] = topic;
   return topic;
+}
+
+void DdsSession::on_publisher_discovery(dds::DomainParticipant*, eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) {
+  using Status = eprosima::fastrtps::rtps::WriterDiscoveryInfo;
+  std::lock_guard<std::mutex> lock(writers_mutex_);
+  if (info.status == Status::REMOVED_WRITER) {
+    writer_partitions_.erase(info.info.guid());
+    return;
+  }
+  const auto& partition = info.info.m_qos.m_partition;
+  writer_partitions_[info.info.guid()] = partition.begin() != partition.end() ? partition.begin()->name() : "";
+}
+
+std::optional<std::string> DdsSession::WriterPartition(const eprosima::fastrtps::rtps::GUID_t& writer) const {
+  std::lock_guard<std::mutex> lock(writers_mutex_);
+  auto it = writer_partitions_.find(writer);
+  if (it == writer_partitions_.end()) return std::nullopt;
+  return it->second;
 }
 
 TopicCounters& DdsSession::Counters(const std::string& topic, const std::string& direction) {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
@@ -16,8 +17,10 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
+#include <cstdint>
 
 #include "runtime_common/fault_injection_transport.h"
 #include "runtime_common/traffic_stats.h"
@@ -35,6 +38,17 @@ struct SessionOptions {
   /// Install the (pass-through) fault transport even without faults, to count datagrams
   /// and bytes on the wire (benchmarks, diagnostics).
   bool count_wire = false;
+  /// With count_wire: also count received datagrams that contain this byte sequence
+  /// (FaultCounters::watch_hits; tests look for a keyframe's bytes on the wire).
+  std::vector<std::uint8_t> wire_watch_pattern;
+  /// DDS-Security (docs/security.md): a directory laid out by deploy/security/make-pki.sh
+  /// (identity_ca.pem, cert.pem, key.pem, permissions_ca.pem, governance.p7s,
+  /// permissions.p7s). Empty: no security. The plugins come from the participant profile
+  /// `security_profile` of `security_file`; only the file paths are set here.
+  std::string security_dir;
+  /// Empty: the installed/source-tree qos_profiles/secure.xml.
+  std::string security_file;
+  std::string security_profile = "ccm_secure_participant";
 };
 
 /// Loads an XML profiles file with a clear error for a missing file or a parse failure.
@@ -42,8 +56,15 @@ bool LoadQosFile(const std::string& path, std::string* error);
 /// The QoS file a binary uses when none is given: $FASTRTPS_DEFAULT_PROFILES_FILE if set,
 /// otherwise the installed/source-tree default.xml.
 std::string DefaultQosFile();
+/// Adds the DDS-Security properties to a participant's QoS: the plugin properties of
+/// `options.security_profile` (from options.security_file) and the six file paths in
+/// `options.security_dir`. Clear error for a missing file or profile. No-op without a dir.
+bool ApplySecurity(const SessionOptions& options, eprosima::fastdds::dds::DomainParticipantQos* qos,
+                   std::string* error);
+/// "agent_<id>" -> id; -1 for anything else (runtime_common/topics.h AgentPartition).
+int AgentIdOfPartition(const std::string& partition);
 
-class DdsSession {
+class DdsSession : private eprosima::fastdds::dds::DomainParticipantListener {
  public:
   static std::unique_ptr<DdsSession> Create(const SessionOptions& options, std::string* error);
   ~DdsSession();
@@ -68,9 +89,16 @@ class DdsSession {
   /// Datagram counters of the fault-injection transport (all zero when it is off).
   const FaultCounters& fault_counters() const { return *fault_counters_; }
   const SessionOptions& options() const { return options_; }
+  /// The first DDS partition of a discovered remote writer ("" for the default partition,
+  /// nullopt if it is not (yet) known). Filled by discovery, so a receiver can tell which
+  /// partition a sample came from (SampleInfo only names the writer).
+  std::optional<std::string> WriterPartition(const eprosima::fastrtps::rtps::GUID_t& writer) const;
 
  private:
   explicit DdsSession(SessionOptions options);
+  // DomainParticipantListener: only records the writer's partition (discovery thread).
+  void on_publisher_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
+                              eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override;
 
   SessionOptions options_;
   std::shared_ptr<FaultCounters> fault_counters_ = std::make_shared<FaultCounters>();
@@ -82,6 +110,8 @@ class DdsSession {
   std::map<std::string, eprosima::fastdds::dds::Publisher*> partition_publishers_;
   std::map<std::string, eprosima::fastdds::dds::Subscriber*> partition_subscribers_;
   std::map<std::pair<std::string, std::string>, std::unique_ptr<TopicCounters>> counters_;
+  mutable std::mutex writers_mutex_;  // guards writer_partitions_; leaf
+  std::map<eprosima::fastrtps::rtps::GUID_t, std::string> writer_partitions_;
 };
 
 }  // namespace ccm::rt

@@ -1,5 +1,6 @@
 #include "runtime_common/fault_injection_transport.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <sstream>
 
@@ -110,6 +111,11 @@ void FaultInjectionTransport::receive(eprosima::fastdds::rtps::TransportReceiver
   FaultCounters& counters = *descriptor_.counters;
   counters.datagrams_received++;
   counters.bytes_received += receive_buffer_size;
+  if (!counters.watch_pattern.empty() &&
+      std::search(receive_buffer, receive_buffer + receive_buffer_size, counters.watch_pattern.begin(),
+                  counters.watch_pattern.end()) != receive_buffer + receive_buffer_size) {
+    counters.watch_hits++;
+  }
   const FaultOptions& options = descriptor_.options;
   double delay_ms = options.delay_ms;
   {

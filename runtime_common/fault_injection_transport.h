@@ -46,6 +46,11 @@ struct FaultCounters {
   std::atomic<std::uint64_t> datagrams_received{0};
   std::atomic<std::uint64_t> datagrams_dropped{0};
   std::atomic<std::uint64_t> bytes_received{0};
+  /// Optional probe (set before the participant exists, never changed after): received
+  /// datagrams that contain this byte sequence are counted in watch_hits. Tests use it to
+  /// check whether a keyframe's bytes are readable on the wire (docs/security.md).
+  std::vector<std::uint8_t> watch_pattern;
+  std::atomic<std::uint64_t> watch_hits{0};
 };
 
 class FaultInjectionTransportDescriptor : public eprosima::fastdds::rtps::ChainingTransportDescriptor {

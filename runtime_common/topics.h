@@ -14,9 +14,12 @@ inline constexpr const char* kTopicMapPointUpdates = "ccm/map_point_updates";// 
 inline constexpr const char* kTopicAgentStatus = "ccm/agent_status";         // AgentStatus
 // Server -> agents.
 inline constexpr const char* kTopicServerToAgent = "ccm/server_to_agent";    // ServerToAgent
-/// The DDS partition of one agent's ServerToAgent stream: the server writes each agent's
-/// messages with a writer in that partition, so they reach only that agent.
+/// The DDS partition of one agent: the agent writes all its data in it (so access control
+/// can tell agents apart: docs/security.md) and the server writes that agent's
+/// ServerToAgent messages in it, so they reach only that agent.
 inline std::string AgentPartition(int agent_id) { return "agent_" + std::to_string(agent_id); }
+/// The server's readers match every agent's partition (DDS partition wildcard).
+inline constexpr const char* kAllAgentsPartition = "agent_*";
 
 inline constexpr const char* kProfileParticipant = "ccm_participant";
 inline constexpr const char* kProfileNewDataWriter = "ccm_new_data_writer";

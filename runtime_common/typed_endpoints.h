@@ -52,6 +52,13 @@ class MatchTracker {
   int matched_ = 0;
 };
 
+/// With security, the usual reason an endpoint cannot be created: the permissions.
+inline std::string SecurityHint(const DdsSession& session, const std::string& partition) {
+  if (session.options().security_dir.empty()) return "";
+  return " in partition '" + partition + "': the permissions of '" + session.options().security_dir +
+         "' do not allow it (an agent id that is not the certificate's? see the Fast DDS message above)";
+}
+
 template <typename PubSubT>
 class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
  public:
@@ -79,7 +86,8 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
     }
     w->writer_ = w->publisher_->create_datawriter(topic, qos, w.get(), dds::StatusMask::publication_matched());
     if (w->writer_ == nullptr) {
-      *error = "could not create a data writer on '" + topic_name + "' with profile '" + profile + "'";
+      *error = "could not create a data writer on '" + topic_name + "' with profile '" + profile + "'" +
+               SecurityHint(session, partition);
       return nullptr;
     }
     return w;
@@ -137,6 +145,13 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
  public:
   using Msg = typename PubSubT::type;
 
+  /// One received sample and the writer that sent it (DdsSession::WriterPartition tells the
+  /// writer's partition).
+  struct Received {
+    Msg msg;
+    eprosima::fastrtps::rtps::GUID_t writer;
+  };
+
   struct QueueOptions {
     std::size_t capacity = 256;
     OverflowPolicy policy = OverflowPolicy::kDropOldest;
@@ -164,7 +179,8 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
                                  << dds::StatusMask::sample_lost();
     r->reader_ = r->subscriber_->create_datareader(topic, qos, r.get(), mask);
     if (r->reader_ == nullptr) {
-      *error = "could not create a data reader on '" + topic_name + "' with profile '" + profile + "'";
+      *error = "could not create a data reader on '" + topic_name + "' with profile '" + profile + "'" +
+               SecurityHint(session, partition);
       return nullptr;
     }
     return r;
@@ -179,22 +195,29 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
   }
 
   /// Next received sample, waiting up to `timeout`.
-  std::optional<Msg> Pop(std::chrono::milliseconds timeout) { return queue_.Pop(timeout); }
+  std::optional<Msg> Pop(std::chrono::milliseconds timeout) {
+    auto r = queue_.Pop(timeout);
+    if (!r) return std::nullopt;
+    return std::move(r->msg);
+  }
+  /// Next received sample with its writer, waiting up to `timeout`.
+  std::optional<Received> PopWithWriter(std::chrono::milliseconds timeout) { return queue_.Pop(timeout); }
   int matched() const { return match_.matched(); }
   bool WaitForMatch(int count, std::chrono::milliseconds timeout) { return match_.WaitFor(count, timeout); }
   const TopicCounters& counters() const { return counters_; }
 
   void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
     eprosima::fastdds::dds::SampleInfo info;
-    Msg msg;
-    while (reader->take_next_sample(&msg, &info) == ReturnCode_t::RETCODE_OK) {
+    Received r;
+    while (reader->take_next_sample(&r.msg, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;
       counters_.samples++;
-      counters_.payload_bytes += type_.get_serialized_size_provider(&msg)();
+      counters_.payload_bytes += type_.get_serialized_size_provider(&r.msg)();
+      r.writer = info.sample_identity.writer_guid();
       const std::size_t dropped_before = queue_.dropped();
-      if (!queue_.Push(std::move(msg))) return;  // closed: shutting down
+      if (!queue_.Push(std::move(r))) return;  // closed: shutting down
       counters_.queue_dropped += queue_.dropped() - dropped_before;
-      msg = Msg();
+      r = Received();
     }
   }
   void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
@@ -215,7 +238,7 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
   DdsSession& session_;
   eprosima::fastdds::dds::TypeSupport type_;
   TopicCounters& counters_;
-  BoundedQueue<Msg> queue_;
+  BoundedQueue<Received> queue_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   MatchTracker match_;

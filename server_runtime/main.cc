@@ -60,6 +60,8 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   auto* domain_opt = app.add_option("--domain", config.domain_id, "DDS domain id (overrides the config)");
   auto* qos_opt = app.add_option("--qos", config.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
+  auto* security_opt = app.add_option("--security-dir", config.security_dir,
+                                     "DDS-Security directory of this participant (docs/security.md; overrides the config)");
   auto* log_opt = app.add_option("--log-level", config.log_level, "trace, debug, info, warn, error, off");
   auto* vocab_opt = app.add_option("--vocab", config.vocabulary, "bag-of-words vocabulary (default: the built-in one)");
   auto* load_opt = app.add_option("--load-map", config.load_map, "start from this saved map stack")
@@ -86,6 +88,7 @@ int main(int argc, char** argv) {
     config = from_file;  // the command line wins over the file
     if (*domain_opt) config.domain_id = cli.domain_id;
     if (*qos_opt) config.qos_file = cli.qos_file;
+    if (*security_opt) config.security_dir = cli.security_dir;
     if (*log_opt) config.log_level = cli.log_level;
     if (*vocab_opt) config.vocabulary = cli.vocabulary;
     if (*load_opt) config.load_map = cli.load_map;
@@ -102,6 +105,7 @@ int main(int argc, char** argv) {
   }
   session.domain_id = config.domain_id;
   session.qos_file = config.qos_file;
+  session.security_dir = config.security_dir;
 
   auto loaded = LoadVocabularyFile(config.vocabulary, &error);
   if (!loaded) return Fail(error);

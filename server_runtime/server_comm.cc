@@ -51,23 +51,26 @@ std::unique_ptr<ServerComm> ServerComm::Create(const ServerConfig& config, rt::S
   std::unique_ptr<ServerComm> c(new ServerComm(config, std::move(session), backend));
   rt::DdsSession& s = *c->session_;
   using namespace rt;
+  // Every agent writes in its own partition (agent_<id>); the server reads them all and
+  // checks each message's agent id against its writer's partition (FromItsPartition). With
+  // the secure profile, access control lets only agent <id>'s certificate write there.
   // New data: the listener waits only if the comm thread itself is stuck (it never waits on
   // SLAM work: Submit only queues), so nothing reliable is lost in the server process.
   c->keyframe_reader_ = TypedReader<msg::KeyframeFullPubSubType>::Create(
-      s, kTopicKeyframes, kProfileNewDataReader, {256, OverflowPolicy::kBlock}, error);
+      s, kTopicKeyframes, kProfileNewDataReader, {256, OverflowPolicy::kBlock}, error, kAllAgentsPartition);
   if (!c->keyframe_reader_) return nullptr;
   c->point_reader_ = TypedReader<msg::MapPointBatchPubSubType>::Create(
-      s, kTopicMapPoints, kProfileNewDataReader, {1024, OverflowPolicy::kBlock}, error);
+      s, kTopicMapPoints, kProfileNewDataReader, {1024, OverflowPolicy::kBlock}, error, kAllAgentsPartition);
   if (!c->point_reader_) return nullptr;
   // Updates are superseded by newer ones: drop the oldest when behind.
   c->kf_update_reader_ = TypedReader<msg::KeyframeUpdatePubSubType>::Create(
-      s, kTopicKeyframeUpdates, kProfileUpdateReader, {8192, OverflowPolicy::kDropOldest}, error);
+      s, kTopicKeyframeUpdates, kProfileUpdateReader, {8192, OverflowPolicy::kDropOldest}, error, kAllAgentsPartition);
   if (!c->kf_update_reader_) return nullptr;
   c->mp_update_reader_ = TypedReader<msg::MapPointUpdateBatchPubSubType>::Create(
-      s, kTopicMapPointUpdates, kProfileUpdateReader, {256, OverflowPolicy::kDropOldest}, error);
+      s, kTopicMapPointUpdates, kProfileUpdateReader, {256, OverflowPolicy::kDropOldest}, error, kAllAgentsPartition);
   if (!c->mp_update_reader_) return nullptr;
   c->status_reader_ = TypedReader<msg::AgentStatusPubSubType>::Create(
-      s, kTopicAgentStatus, kProfileStatusReader, {256, OverflowPolicy::kDropOldest}, error);
+      s, kTopicAgentStatus, kProfileStatusReader, {256, OverflowPolicy::kDropOldest}, error, kAllAgentsPartition);
   if (!c->status_reader_) return nullptr;
   return c;
 }
@@ -131,6 +134,22 @@ bool ServerComm::Admit(AgentId agent, const char* what) {
   return true;
 }
 
+bool ServerComm::FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer, AgentId agent, const char* what) {
+  const std::optional<std::string> partition = session_->WriterPartition(writer);
+  if (partition && rt::AgentIdOfPartition(*partition) == static_cast<int>(agent)) return true;
+  // Not charged to `agent`: the sender is someone else (or not yet discovered, then the
+  // agent resends what goes unacknowledged).
+  const std::string where = partition ? "partition '" + *partition + "'" : "a writer not (yet) discovered";
+  if (logged_kinds_.insert(partition ? "wrong partition" : "undiscovered writer").second) {
+    spdlog::warn("ignored a {} claiming agent {} from {} (only agent {}'s partition may carry its data; further "
+                 "ones are only counted)",
+                 what, agent, where, agent);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.wrong_partition;
+  return false;
+}
+
 void ServerComm::Reject(AgentId agent, const std::string& reason) {
   const std::string kind = conv::ReasonKind(reason);
   if (logged_kinds_.insert(kind).second) {
@@ -154,10 +173,11 @@ bool ServerComm::Intake() {
   std::string error;
   bool got = false;
   // Heartbeats first: they admit agents and carry the reference keyframe.
-  while (auto st = status_reader_->Pop(std::chrono::milliseconds(0))) {
+  while (auto received = status_reader_->PopWithWriter(std::chrono::milliseconds(0))) {
     got = true;
+    const msg::AgentStatus* st = &received->msg;
     const AgentId agent = st->agent_id();
-    if (!ValidAgentId(agent)) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "status")) continue;
     if (st->protocol_version() != msg::kProtocolVersion) {
       Reject(agent, VersionMismatch("status", st->protocol_version()));
       continue;
@@ -186,11 +206,15 @@ bool ServerComm::Intake() {
   }
   bool data = false;
   for (int n = 0; n < kMaxKeyframesPerCycle; ++n) {
-    auto m = keyframe_reader_->Pop(std::chrono::milliseconds(0));
-    if (!m) break;
+    auto received = keyframe_reader_->PopWithWriter(std::chrono::milliseconds(0));
+    if (!received) break;
     data = true;
+    auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !Admit(agent, "keyframe")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe") ||
+        !Admit(agent, "keyframe")) {
+      continue;
+    }
     KeyframeId ref;
     auto d = conv::FromMsg(*m, &cameras_, &error, &ref);
     if (!d) {
@@ -211,11 +235,15 @@ bool ServerComm::Intake() {
     link.segments.insert(segment);
   }
   for (int n = 0; n < kMaxBatchesPerCycle; ++n) {
-    auto m = point_reader_->Pop(std::chrono::milliseconds(0));
-    if (!m) break;
+    auto received = point_reader_->PopWithWriter(std::chrono::milliseconds(0));
+    if (!received) break;
     data = true;
+    auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !Admit(agent, "map points")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map points") ||
+        !Admit(agent, "map points")) {
+      continue;
+    }
     if (m->protocol_version() != msg::kProtocolVersion) {
       Reject(agent, VersionMismatch("map point batch", m->protocol_version()));
       continue;
@@ -241,11 +269,15 @@ bool ServerComm::Intake() {
     stats_.agents[agent].map_points += accepted;
   }
   for (int n = 0; n < kMaxOtherPerCycle; ++n) {
-    auto m = kf_update_reader_->Pop(std::chrono::milliseconds(0));
-    if (!m) break;
+    auto received = kf_update_reader_->PopWithWriter(std::chrono::milliseconds(0));
+    if (!received) break;
     data = true;
+    auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !Admit(agent, "keyframe update")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe update") ||
+        !Admit(agent, "keyframe update")) {
+      continue;
+    }
     auto d = conv::FromMsg(*m, &error);
     if (!d) {
       Reject(agent, error);
@@ -263,11 +295,15 @@ bool ServerComm::Intake() {
     ++stats_.agents[agent].keyframe_updates;
   }
   for (int n = 0; n < kMaxBatchesPerCycle; ++n) {
-    auto m = mp_update_reader_->Pop(std::chrono::milliseconds(0));
-    if (!m) break;
+    auto received = mp_update_reader_->PopWithWriter(std::chrono::milliseconds(0));
+    if (!received) break;
     data = true;
+    auto* m = &received->msg;
     const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !Admit(agent, "map point updates")) continue;
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map point updates") ||
+        !Admit(agent, "map point updates")) {
+      continue;
+    }
     if (m->protocol_version() != msg::kProtocolVersion) {
       Reject(agent, VersionMismatch("map point update batch", m->protocol_version()));
       continue;

@@ -2,7 +2,8 @@
 // here, Start/Stop) does all of it, so DDS receive threads never wait on SLAM work:
 //  * intake: the readers' listeners only enqueue (bounded queues; runtime_common/
 //    typed_endpoints.h). The comm thread pops, converts and validates every message
-//    (conv::FromMsg: a rejection is counted and logged once per kind), admits agents
+//    (conv::FromMsg: a rejection is counted and logged once per kind; a message whose agent
+//    id is not the one of its writer's partition agent_<id> is dropped: docs/security.md), admits agents
 //    (protocol version, max_agents), groups each agent's data per map segment into an
 //    AgentBatch and submits it to the back-end, whose bounded per-agent queue decouples the
 //    agent's handler thread (BackendRunner). A slow handler therefore only fills its own
@@ -70,6 +71,9 @@ struct ServerCommStats {
   int64_t refused_agents = 0;         ///< messages from agents beyond max_agents
   int64_t rejected = 0;
   std::map<std::string, int64_t> rejected_by_kind;
+  /// Messages whose agent id is not the one of the partition they were written in
+  /// (another participant claiming to be that agent; with security: impossible to match).
+  int64_t wrong_partition = 0;
   double elapsed_s = 0.0;
   double last_data_s = -1.0;          ///< last keyframe/point/update received (-1: none yet)
 };
@@ -126,6 +130,8 @@ class ServerComm {
   bool Intake();  // returns whether anything arrived
   bool Admit(AgentId agent, const char* what);
   void Reject(AgentId agent, const std::string& reason);
+  /// True when `writer` writes in agent `agent`'s partition; otherwise counted and false.
+  bool FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer, AgentId agent, const char* what);
   AgentBatch& BatchFor(std::map<BatchKey, AgentBatch>* batches, AgentId agent, MapId segment);
   void SubmitBatches(std::map<BatchKey, AgentBatch>* batches);
   /// A keyframe update for a keyframe still held here changes the held data; true if so.

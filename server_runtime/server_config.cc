@@ -20,6 +20,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   rt::YamlReader r(*node, path);
   r.Get("domain_id", &config->domain_id);
   r.Get("qos_file", &config->qos_file);
+  r.Get("security_dir", &config->security_dir);
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("ack_repeats", &config->ack_repeats);

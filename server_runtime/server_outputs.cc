@@ -47,6 +47,7 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                             {"refused_agents", comm.refused_agents},
                             {"rejected", comm.rejected},
                             {"rejected_by_kind", comm.rejected_by_kind},
+                            {"wrong_partition", comm.wrong_partition},
                             {"fusions", backend.fusions},
                             {"loops", backend.loops},
                             {"traffic", topics}};
