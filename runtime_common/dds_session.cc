@@ -9,6 +9,8 @@
 #include <set>
 #include <fstream>
 
+#include "runtime_common/install_paths.h"
+
 #ifndef CCM_QOS_DIR
 #define CCM_QOS_DIR "qos_profiles"
 #endif
@@ -51,7 +53,7 @@ std::string DefaultQosFile() {
   if (const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE"); env != nullptr && *env != '\0') {
     return env;
   }
-  return std::string(CCM_QOS_DIR) + "/default.xml";
+  return FindDataFile("qos_profiles/default.xml", std::string(CCM_QOS_DIR) + "/default.xml");
 }
 
 namespace {
