@@ -16,8 +16,10 @@
 #include "slam_core/io/trajectory_io.h"
 #include "agent_runtime/agent_comm.h"
 #include "slam_core/vo/agent_vo.h"
+#ifdef CCM_AGENT_WITH_SIM
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
+#endif
 
 namespace ccm::agent {
 namespace {
@@ -26,6 +28,10 @@ using Clock = std::chrono::steady_clock;
 
 std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error) {
   if (!o.sim_scenario.empty()) {
+#ifndef CCM_AGENT_WITH_SIM
+    *error = "this ccm_agent was built without the simulator (CCM_AGENT_ONLY): use --dataset or --video";
+    return nullptr;
+#else
     const auto scenario = sim::LoadScenario(o.sim_scenario, error);
     if (!scenario) return nullptr;
     std::shared_ptr<const sim::Simulation> simulation(sim::Simulation::Create(*scenario, error));
@@ -36,6 +42,7 @@ std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error)
       return nullptr;
     }
     return std::make_unique<sim::SimFrameSource>(simulation, o.sim_agent);
+#endif
   }
   if (!o.video.empty()) {
     CameraIntrinsics intrinsics;
