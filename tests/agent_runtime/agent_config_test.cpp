@@ -63,7 +63,7 @@ TEST(AgentConfig, OnboardTemplateLoads) {
   EXPECT_EQ(c.calibration, "/etc/ccm-slam-dds/agents/camera.yaml");
   EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi.xml");
   EXPECT_EQ(c.opencv_threads, 1);
-  EXPECT_EQ(c.vo.orb.num_features, 800);
+  EXPECT_EQ(c.vo.local_ba_window, 7);
   EXPECT_LT(c.max_keyframes, AgentConfig().max_keyframes);
   EXPECT_FALSE(LoadAgentConfig(Write("threads.yaml", "opencv_threads: -1\n"), &c, &error));
   EXPECT_NE(error.find("opencv_threads"), std::string::npos) << error;
