@@ -1,6 +1,7 @@
 #include "runtime_common/dds_session.h"
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/log/Log.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
@@ -40,6 +41,7 @@ bool LoadQosFile(const std::string& path, std::string* error) {
     return false;
   }
   if (dds::DomainParticipantFactory::get_instance()->load_XML_profiles_file(path) != ReturnCode_t::RETCODE_OK) {
+    dds::Log::Flush();  // Fast DDS logs asynchronously: its parser messages first, then ours
     *error = "QoS file '" + path +
              "' was rejected by the Fast DDS 2.9 XML parser (see the parser message above; one unknown "
              "element rejects the whole file)";

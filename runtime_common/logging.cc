@@ -1,5 +1,6 @@
 #include "runtime_common/logging.h"
 
+#include <fastdds/dds/log/Log.hpp>
 #include <spdlog/pattern_formatter.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -19,6 +20,20 @@ class JournalPriorityFlag : public spdlog::custom_flag_formatter {
     dest.append(prefix, prefix + 3);
   }
   std::unique_ptr<custom_flag_formatter> clone() const override { return std::make_unique<JournalPriorityFlag>(); }
+};
+
+// Fast DDS' own messages (discovery problems, XML errors) through spdlog: same format, one
+// line each, and no colour codes, which Fast DDS' console consumer writes even to files and
+// the journal. Called on Fast DDS' logging thread; spdlog's default logger is thread-safe.
+class FastDdsToSpdlog : public eprosima::fastdds::dds::LogConsumer {
+ public:
+  void Consume(const eprosima::fastdds::dds::Log::Entry& entry) override {
+    using Kind = eprosima::fastdds::dds::Log::Kind;
+    const auto level = entry.kind == Kind::Error     ? spdlog::level::err
+                       : entry.kind == Kind::Warning ? spdlog::level::warn
+                                                     : spdlog::level::debug;
+    spdlog::log(level, "Fast DDS [{}] {}", entry.context.category ? entry.context.category : "", entry.message);
+  }
 };
 
 }  // namespace
@@ -52,6 +67,8 @@ bool SetupLogging(const std::string& level, std::string* error) {
     return false;
   }
   spdlog::set_level(parsed);
+  eprosima::fastdds::dds::Log::ClearConsumers();
+  eprosima::fastdds::dds::Log::RegisterConsumer(std::make_unique<FastDdsToSpdlog>());
   if (StdoutIsJournal()) {
     // journald time-stamps each line itself and shows the priority; no colour either.
     auto formatter = std::make_unique<spdlog::pattern_formatter>();

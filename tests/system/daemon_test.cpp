@@ -137,6 +137,12 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
   EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
   ASSERT_TRUE(server2.Signal(SIGINT));
   EXPECT_EQ(server2.Wait(std::chrono::seconds(60)), 0) << server2.Output();
+  // Not a terminal, not the journal: plain time-stamped lines, no colour codes (Fast DDS'
+  // own messages included: they go through the same logger).
+  const std::string out2 = server2.Output();
+  EXPECT_NE(out2.find("] [info] "), std::string::npos) << out2;
+  EXPECT_EQ(out2.find('\x1b'), std::string::npos) << "colour codes in a log file:\n" << out2;
+  EXPECT_EQ(out1.find('\x1b'), std::string::npos) << "colour codes in the journal:\n" << out1;
   std::cout << "first server: " << MapKeyframes(before) << " KFs in status before SIGTERM; restarted server: "
             << MapKeyframes(after) << " KFs once the agent was back; agent acked "
             << agent_json["link"]["kfs_acked"] << " KFs\n";
