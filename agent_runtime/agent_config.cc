@@ -15,6 +15,8 @@ std::string AgentConfig::Validate() const {
   if (!(new_keyframe_delay_s >= 0.0 && new_keyframe_delay_s <= 30.0)) return "new_keyframe_delay_s must be in [0, 30]";
   if (max_keyframes < 2) return "max_keyframes (N) must be >= 2";
   if (buffer_keyframes < 0) return "buffer_keyframes (B) must be >= 0";
+  if (participant_profile.empty()) return "participant_profile must not be empty";
+  if (opencv_threads < 0 || opencv_threads > 64) return "opencv_threads must be in 0..64";
   if (const std::string e = vo.Validate(); !e.empty()) return "vo: " + e;
   return {};
 }
@@ -62,6 +64,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("domain_id", &config->domain_id);
   r.Get("qos_file", &config->qos_file);
   r.Get("security_dir", &config->security_dir);
+  r.Get("participant_profile", &config->participant_profile);
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("max_bytes_per_cycle", &config->max_bytes_per_cycle);
@@ -73,6 +76,9 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("max_keyframes", &config->max_keyframes);
   r.Get("buffer_keyframes", &config->buffer_keyframes);
   r.Get("vocabulary", &config->vocabulary);
+  r.Get("camera", &config->camera);
+  r.Get("calibration", &config->calibration);
+  r.Get("opencv_threads", &config->opencv_threads);
   if (const YAML::Node vo_node = r.Child("vo"); vo_node && r.ok()) {
     if (!vo_node.IsMap()) {
       r.Fail("vo", "must be a mapping of VO options");

@@ -13,6 +13,7 @@ struct AgentConfig {
   int domain_id = 0;                   // DDS domain, 0..232
   std::string qos_file;                // empty: $FASTRTPS_DEFAULT_PROFILES_FILE or qos_profiles/default.xml
   std::string security_dir;            // DDS-Security files of this participant (make-pki.sh); empty: no security
+  std::string participant_profile = "ccm_participant";  // participant profile in qos_file (discovery: ccm_participant_ds_client)
   std::string log_level = "info";
   double publish_rate_hz = 4.0;        // agent -> server messages per second (CCM-SLAM: 2-5 Hz)
   int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)
@@ -25,6 +26,12 @@ struct AgentConfig {
   int buffer_keyframes = 50;           // B: extra unacknowledged KFs kept (paper: B = N)
   std::string vocabulary;              // bag-of-words vocabulary for relocalization; empty: built-in, "none": brute force
   VoOptions vo;                        // `vo:` section (docs/configuration.md); N and B above win
+  // One file per robot (deploy/config/agent-onboard.yaml): its camera and calibration live
+  // here too, so `ccm_agent -c robot.yaml` (the systemd unit) needs no other argument. The
+  // server's address is in the QoS file (initial peers or discovery server).
+  std::string camera;                  // live camera ("0", /dev/video0) or video file; --video/--dataset/--sim win
+  std::string calibration;             // camera calibration YAML (needed with camera); --calibration wins
+  int opencv_threads = 0;              // OpenCV worker threads (image pyramids); 0: OpenCV's default (all cores)
 
   /// Empty when valid, otherwise the first problem found.
   std::string Validate() const;

@@ -16,9 +16,12 @@
 #include "slam_core/io/trajectory_io.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "agent_runtime/agent_comm.h"
+#include "runtime_common/install_paths.h"
 #include "slam_core/vo/agent_vo.h"
+#ifdef CCM_AGENT_WITH_SIM
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
+#endif
 
 #ifndef CCM_DEFAULT_VOCABULARY
 #define CCM_DEFAULT_VOCABULARY ""
@@ -31,6 +34,10 @@ using Clock = std::chrono::steady_clock;
 
 std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error) {
   if (!o.sim_scenario.empty()) {
+#ifndef CCM_AGENT_WITH_SIM
+    *error = "this ccm_agent was built without the simulator (CCM_AGENT_ONLY): use --dataset or --video";
+    return nullptr;
+#else
     const auto scenario = sim::LoadScenario(o.sim_scenario, error);
     if (!scenario) return nullptr;
     std::shared_ptr<const sim::Simulation> simulation(sim::Simulation::Create(*scenario, error));
@@ -41,6 +48,7 @@ std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error)
       return nullptr;
     }
     return std::make_unique<sim::SimFrameSource>(simulation, o.sim_agent);
+#endif
   }
   if (!o.video.empty()) {
     CameraIntrinsics intrinsics;
@@ -143,7 +151,9 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
                           : o.no_acks ? static_cast<const AckSource&>(ack_none)
                                       : static_cast<const AckSource&>(ack_all);
   std::shared_ptr<const Vocabulary> vocabulary;
-  const std::string vocabulary_path = o.vocabulary.empty() ? CCM_DEFAULT_VOCABULARY : o.vocabulary;
+  // Default: the installed vocabulary beside the binary, else the build tree's.
+  const std::string vocabulary_path =
+      o.vocabulary.empty() ? rt::FindDataFile("vocabulary/sim_vocab_k10_l5.ccmvoc", CCM_DEFAULT_VOCABULARY) : o.vocabulary;
   if (vocabulary_path.empty()) {
     spdlog::info("no vocabulary built in: relocalization matches against every local map point (give --vocab FILE)");
   } else if (o.vocabulary != "none") {

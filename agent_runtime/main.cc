@@ -4,6 +4,7 @@
 // back (agent_runtime/agent_runner.h, agent_comm.h).
 #include <CLI/CLI.hpp>
 #include <glog/logging.h>
+#include <opencv2/core/utility.hpp>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -35,6 +36,8 @@ int main(int argc, char** argv) {
   auto* security_opt = app.add_option("--security-dir", config.security_dir,
                                      "DDS-Security directory of this participant (docs/security.md; overrides the config)");
   auto* log_opt = app.add_option("--log-level", config.log_level, "trace, debug, info, warn, error, off");
+  auto* participant_opt = app.add_option("--participant-profile", config.participant_profile,
+                                         "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
   app.add_flag("--standalone", standalone, "run the VO without DDS (no server)");
   app.add_option("--dataset", run.dataset, "dataset folder (EuRoC, TUM RGB-D or KITTI odometry)");
   app.add_option("--format", run.format, "dataset format: auto, euroc, tum, kitti")->capture_default_str();
@@ -78,8 +81,17 @@ int main(int argc, char** argv) {
     if (*security_opt) config.security_dir = cli.security_dir;
     if (*log_opt) config.log_level = cli.log_level;
     if (*vocab_opt) config.vocabulary = cli.vocabulary;
+    if (*participant_opt) config.participant_profile = cli.participant_profile;
   }
   if (*sharing_opt) config.map_sharing = false;
+  // The robot's camera from its config file, unless the command line names another input.
+  if (run.dataset.empty() && run.sim_scenario.empty() && run.video.empty() && !config.camera.empty()) {
+    run.video = config.camera;
+    if (run.calibration.empty()) run.calibration = config.calibration;
+  }
+  // Weak boards: OpenCV would otherwise start one worker per core for the image pyramids,
+  // competing with tracking and local mapping (docs/deployment.md, budgets).
+  if (config.opencv_threads > 0) cv::setNumThreads(config.opencv_threads);
   if (const std::string problem = config.Validate(); !problem.empty()) {
     std::cerr << "error: " << problem << "\n";
     return 2;
@@ -110,6 +122,7 @@ int main(int argc, char** argv) {
   session.domain_id = config.domain_id;
   session.qos_file = config.qos_file;
   session.security_dir = config.security_dir;
+  session.participant_profile = config.participant_profile;
   // Ids of this process' life: a restarted agent with the same id must not reuse keyframe,
   // point or segment ids the server already holds (it would take new keyframes for resends).
   // Seconds since 2024 (segments, 32 bits on the wire) and 100000 ids per second of clock

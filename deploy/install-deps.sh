@@ -9,6 +9,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libceres-dev libsuitesparse-dev libopengv-dev
   libgtest-dev libgmock-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev libcereal-dev
   python3 openssl
+  dpkg-dev file  # Debian packages (cpack DEB: dpkg-shlibdeps, file); ctest packaging_debian
 )
 
 missing=()

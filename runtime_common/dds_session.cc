@@ -2,6 +2,7 @@
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/rtps/builtin/data/WriterProxyData.h>
+#include <fastdds/dds/log/Log.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
@@ -10,6 +11,8 @@
 #include <filesystem>
 #include <set>
 #include <fstream>
+
+#include "runtime_common/install_paths.h"
 
 #ifndef CCM_QOS_DIR
 #define CCM_QOS_DIR "qos_profiles"
@@ -40,6 +43,7 @@ bool LoadQosFile(const std::string& path, std::string* error) {
     return false;
   }
   if (dds::DomainParticipantFactory::get_instance()->load_XML_profiles_file(path) != ReturnCode_t::RETCODE_OK) {
+    dds::Log::Flush();  // Fast DDS logs asynchronously: its parser messages first, then ours
     *error = "QoS file '" + path +
              "' was rejected by the Fast DDS 2.9 XML parser (see the parser message above; one unknown "
              "element rejects the whole file)";
@@ -53,7 +57,7 @@ std::string DefaultQosFile() {
   if (const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE"); env != nullptr && *env != '\0') {
     return env;
   }
-  return std::string(CCM_QOS_DIR) + "/default.xml";
+  return FindDataFile("qos_profiles/default.xml", std::string(CCM_QOS_DIR) + "/default.xml");
 }
 
 int AgentIdOfPartition(const std::string& partition) {

@@ -54,7 +54,7 @@ struct SessionOptions {
 /// Loads an XML profiles file with a clear error for a missing file or a parse failure.
 bool LoadQosFile(const std::string& path, std::string* error);
 /// The QoS file a binary uses when none is given: $FASTRTPS_DEFAULT_PROFILES_FILE if set,
-/// otherwise the installed/source-tree default.xml.
+/// otherwise the installed (install_paths.h) or source-tree default.xml.
 std::string DefaultQosFile();
 /// Adds the DDS-Security properties to a participant's QoS: the plugin properties of
 /// `options.security_profile` (from options.security_file) and the six file paths in

@@ -14,6 +14,8 @@ inline constexpr const char* kTopicMapPointUpdates = "ccm/map_point_updates";// 
 inline constexpr const char* kTopicAgentStatus = "ccm/agent_status";         // AgentStatus
 // Server -> agents.
 inline constexpr const char* kTopicServerToAgent = "ccm/server_to_agent";    // ServerToAgent
+// Server -> operators (ccm_ctl status; idl/ccm_status.idl).
+inline constexpr const char* kTopicServerStatus = "ccm/server_status";        // ServerStatus
 /// The DDS partition of one agent: the agent writes all its data in it (so access control
 /// can tell agents apart: docs/security.md) and the server writes that agent's
 /// ServerToAgent messages in it, so they reach only that agent.
@@ -30,5 +32,7 @@ inline constexpr const char* kProfileStatusWriter = "ccm_status_writer";
 inline constexpr const char* kProfileStatusReader = "ccm_status_reader";
 inline constexpr const char* kProfileServerWriter = "ccm_server_writer";
 inline constexpr const char* kProfileServerReader = "ccm_server_reader";
+inline constexpr const char* kProfileServerStatusWriter = "ccm_server_status_writer";
+inline constexpr const char* kProfileServerStatusReader = "ccm_server_status_reader";
 
 }  // namespace ccm::rt

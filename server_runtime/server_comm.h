@@ -88,6 +88,8 @@ class ServerComm {
   void Stop();
   ServerCommStats Stats() const;
   std::vector<rt::TopicCountersSnapshot> Traffic() const { return session_->TrafficSnapshot(); }
+  /// The participant, for the daemon's own writers (status topic); same lifetime as this.
+  rt::DdsSession& session() { return *session_; }
 
  private:
   struct PendingAck {

@@ -11,6 +11,9 @@ std::string ServerConfig::Validate() const {
   if (max_agents < 1 || max_agents > 64) return "max_agents must be in 1..64 (see resource limits in the QoS file)";
   if (neighbourhood_k < 0 || neighbourhood_k > 16) return "neighbourhood_k must be in 0..16 (idl kMaxKeyframesPerServerMsg)";
   if (!(liveliness_timeout_s > 0.0)) return "liveliness_timeout_s must be > 0";
+  if (participant_profile.empty()) return "participant_profile must not be empty";
+  if (!(autosave_s == 0.0 || autosave_s >= 1.0)) return "autosave_s must be 0 (off) or >= 1";
+  if (!(status_period_s >= 0.1 && status_period_s <= 60.0)) return "status_period_s must be in [0.1, 60]";
   return {};
 }
 
@@ -21,6 +24,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("domain_id", &config->domain_id);
   r.Get("qos_file", &config->qos_file);
   r.Get("security_dir", &config->security_dir);
+  r.Get("participant_profile", &config->participant_profile);
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("ack_repeats", &config->ack_repeats);
@@ -31,6 +35,9 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("vocabulary", &config->vocabulary);
   r.Get("load_map", &config->load_map);
   r.Get("save_map", &config->save_map);
+  r.Get("map_file", &config->map_file);
+  r.Get("autosave_s", &config->autosave_s);
+  r.Get("status_period_s", &config->status_period_s);
   r.RejectUnknownKeys();
   if (!r.ok()) {
     *error = r.error();

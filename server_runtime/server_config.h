@@ -9,6 +9,7 @@ struct ServerConfig {
   int domain_id = 0;                 // DDS domain, 0..232
   std::string qos_file;              // empty: $FASTRTPS_DEFAULT_PROFILES_FILE or qos_profiles/default.xml
   std::string security_dir;            // DDS-Security files of this participant (make-pki.sh); empty: no security
+  std::string participant_profile = "ccm_participant";  // participant profile in qos_file (discovery: ccm_participant_ds_client)
   std::string log_level = "info";
   double publish_rate_hz = 1.0;      // server -> agent messages per agent per second (< agent rate)
   int ack_repeats = 3;               // each ack is repeated in this many messages (they are BEST_EFFORT)
@@ -19,6 +20,10 @@ struct ServerConfig {
   std::string vocabulary;            // bag-of-words vocabulary file; empty: the built-in simulator one
   std::string load_map;              // start from this saved map stack (empty: fresh)
   std::string save_map;              // save the map stack here on exit (empty: not saved)
+  std::string map_file;              // daemon map: loaded at start if it exists, saved on exit and by autosave
+                                     // (load_map / save_map, when given, win for their direction)
+  double autosave_s = 60.0;          // save the map stack this often while running (0: only on exit)
+  double status_period_s = 1.0;      // ServerStatus topic period (ccm_ctl status)
 
   std::string Validate() const;
 };

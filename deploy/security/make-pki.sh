@@ -183,7 +183,10 @@ EOF
 
 if [ "$ADD_ONLY" -eq 0 ]; then
   issue server server ccm-server "        <publish><topics><topic>ccm/server_to_agent</topic></topics><partitions><partition>agent_*</partition></partitions></publish>
+        <publish><topics><topic>ccm/server_status</topic></topics></publish>
         <subscribe><topics>$AGENT_TOPICS</topics><partitions><partition>agent_*</partition></partitions></subscribe>"
+  # The operator's ccm_ctl: may only read the server's status.
+  issue ctl operator ccm-ctl "        <subscribe><topics><topic>ccm/server_status</topic></topics></subscribe>"
 fi
 for id in "${AGENTS[@]}"; do
   issue "agent_$id" agent "ccm-agent-$id" "        <publish><topics>$AGENT_TOPICS</topics><partitions><partition>agent_$id</partition></partitions></publish>

@@ -55,5 +55,21 @@ TEST(AgentConfig, VoSectionSetsOptionsAndIsStrict) {
   EXPECT_NE(error.find("vo"), std::string::npos) << error;
 }
 
+// The onboard template the ccm-agent package installs: one file per robot with its camera,
+// calibration and the budgets for weak boards.
+TEST(AgentConfig, OnboardTemplateLoads) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(std::string(CCM_SOURCE_DIR) + "/deploy/config/agent-onboard.yaml", &c, &error)) << error;
+  EXPECT_EQ(c.camera, "/dev/video0");
+  EXPECT_EQ(c.calibration, "/etc/ccm-slam-dds/agents/camera.yaml");
+  EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi.xml");
+  EXPECT_EQ(c.opencv_threads, 1);
+  EXPECT_EQ(c.vo.local_ba_window, 7);
+  EXPECT_LT(c.max_keyframes, AgentConfig().max_keyframes);
+  EXPECT_FALSE(LoadAgentConfig(Write("threads.yaml", "opencv_threads: -1\n"), &c, &error));
+  EXPECT_NE(error.find("opencv_threads"), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace ccm::agent

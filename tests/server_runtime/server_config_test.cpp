@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <sstream>
 
 namespace ccm::server {
 namespace {
@@ -20,6 +21,44 @@ TEST(ServerConfig, LoadsAndValidates) {
   std::ofstream(bad) << "ack_repeats: 0\n";
   EXPECT_FALSE(LoadServerConfig(bad, &c, &error));
   EXPECT_NE(error.find("ack_repeats"), std::string::npos) << error;
+}
+
+TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
+  const std::string path = ::testing::TempDir() + "/server_daemon.yaml";
+  std::ofstream(path) << "map_file: /var/lib/x/stack.ccmmap\nautosave_s: 30\nstatus_period_s: 0.5\n"
+                         "participant_profile: ccm_participant_ds_client\n";
+  ServerConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  EXPECT_EQ(c.map_file, "/var/lib/x/stack.ccmmap");
+  EXPECT_DOUBLE_EQ(c.autosave_s, 30.0);
+  EXPECT_DOUBLE_EQ(c.status_period_s, 0.5);
+  EXPECT_EQ(c.participant_profile, "ccm_participant_ds_client");
+  // A sub-second autosave would save continuously; 0 switches it off.
+  std::ofstream(path) << "autosave_s: 0.2\n";
+  EXPECT_FALSE(LoadServerConfig(path, &c, &error));
+  EXPECT_NE(error.find("autosave_s"), std::string::npos) << error;
+  std::ofstream(path) << "autosave_s: 0\n";
+  EXPECT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+}
+
+// The config the ccm-server package installs (its @CCM_CONFDIR@ filled in as at install time).
+TEST(ServerConfig, InstalledDaemonConfigLoads) {
+  std::ifstream in(std::string(CCM_SOURCE_DIR) + "/deploy/config/server-daemon.yaml.in");
+  ASSERT_TRUE(in.good());
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string key = "@CCM_CONFDIR@";
+  for (auto at = yaml.find(key); at != std::string::npos; at = yaml.find(key)) yaml.replace(at, key.size(), "/etc/ccm-slam-dds");
+  const std::string path = ::testing::TempDir() + "/server_installed.yaml";
+  std::ofstream(path) << yaml;
+  ServerConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi.xml");
+  EXPECT_EQ(c.map_file, "/var/lib/ccm-slam-dds/map_stack.ccmmap");
+  EXPECT_GT(c.autosave_s, 0.0);
 }
 
 }  // namespace

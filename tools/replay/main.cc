@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "slam_core/io/dataset.h"
+#include "runtime_common/install_paths.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
@@ -28,7 +29,8 @@ struct Args {
   std::vector<int> sim_agents;
   std::vector<std::string> datasets;
   std::string format = "auto";
-  std::string vocabulary = CCM_DEFAULT_VOCABULARY;
+  // The installed copy first (install_paths.h), then the build tree's.
+  std::string vocabulary = ccm::rt::FindDataFile("vocabulary/sim_vocab_k10_l5.ccmvoc", CCM_DEFAULT_VOCABULARY);
   std::string out = "replay-out";
   std::string save_map, load_map, record;
   ccm::replay::ReplayOptions replay;
