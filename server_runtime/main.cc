@@ -13,6 +13,7 @@
 
 #include "runtime_common/logging.h"
 #include "server_runtime/backend_runner.h"
+#include "server_runtime/map_view_server.h"
 #include "server_runtime/server_comm.h"
 #include "server_runtime/server_outputs.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
@@ -55,6 +56,7 @@ int main(int argc, char** argv) {
   std::string config_path, out_dir;
   double duration_s = 0.0, idle_exit_s = 0.0, progress_s = 2.0;
   bool no_final_ba = false;
+  server::MapViewServerOptions map_view;
   CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
   app.add_option("-c,--config", config_path, "YAML config file (keys: see docs/configuration.md)")
       ->check(CLI::ExistingFile);
@@ -73,6 +75,7 @@ int main(int argc, char** argv) {
   app.add_option("--progress", progress_s, "progress line period [s]")->capture_default_str();
   app.add_option("--drop", session.fault.drop_probability, "fault injection: drop probability of received datagrams");
   app.add_option("--delay-ms", session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
+  server::AddMapViewOptions(&app, &map_view);
   CLI11_PARSE(app, argc, argv);
   google::InitGoogleLogging(argv[0]);
   FLAGS_minloglevel = google::GLOG_ERROR;  // Ceres' rejected-step warnings are noise here
@@ -128,6 +131,15 @@ int main(int argc, char** argv) {
   if (session.fault.enabled()) spdlog::warn("fault injection active: {}", session.fault.ToString());
   spdlog::info("server up on domain {} (vocabulary {} words, max {} agents, map sharing k = {})", config.domain_id,
                vocabulary->num_words(), config.max_agents, config.map_sharing ? config.neighbourhood_k : 0);
+  std::unique_ptr<server::MapViewServer> view;
+  if (map_view.enabled()) {
+    const server::ServerComm* comm_ptr = comm.get();
+    view = server::MapViewServer::Start(map_view, backend.get(), [comm_ptr] {
+      return server::MapViewHostStatus(comm_ptr->Stats(), comm_ptr->Traffic());
+    }, &error);
+    if (!view) return Fail(error, 1);
+    spdlog::info("map view on {}", view->url());
+  }
   comm->Start();
 
   using Clock = std::chrono::steady_clock;
@@ -149,6 +161,7 @@ int main(int argc, char** argv) {
     }
   }
   spdlog::info("stopping: finishing queued work");
+  if (view) view->Stop();  // before the comm module its status reads
   comm->Stop();
   runner->Stop();
   backend->ProcessAllQueued();
