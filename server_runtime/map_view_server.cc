@@ -1,11 +1,14 @@
 #include "server_runtime/map_view_server.h"
 
-#include <httplib.h>
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
 
 #include "server_runtime/map_view_api.h"
+
+// After every Eigen header: httplib.h brings <resolv.h>, whose `_res` macro breaks Eigen's
+// templates parsed after it.
+#include <httplib.h>
 
 #ifndef CCM_MAP_VIEW_WEB_ROOT
 #define CCM_MAP_VIEW_WEB_ROOT ""
@@ -74,7 +77,13 @@ bool MapViewServer::Setup(std::string* error) {
   http_ = std::make_unique<httplib::Server>();
   const size_t threads = options_.threads;
   http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  http_->set_payload_max_length(64 * 1024);  // the API takes no request bodies
+  http_->set_payload_max_length(64 * 1024);
+  // httplib's default adds SO_REUSEPORT, which lets a second server bind the same port
+  // silently; keep SO_REUSEADDR only, so a port in use is an error.
+  http_->set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });  // the API takes no request bodies
   http_->set_mount_point("/", root);
   http_->set_mount_point("/three", options_.three_dir);
   http_->Get(R"(/api/.*)", [this](const httplib::Request& req, httplib::Response& res) {
@@ -89,6 +98,14 @@ bool MapViewServer::Setup(std::string* error) {
     }
     SetJson(res, HandleApiRequest(*model_.Latest(), req.path, params, HttpCounters()));
   });
+  // Read-only API: any other method is refused with a clear 405.
+  const auto refuse = [](const httplib::Request& req, httplib::Response& res) {
+    SetJson(res, ApiError(405, "method " + req.method + " not allowed: the map view is read-only (GET)"));
+  };
+  http_->Post(".*", refuse);
+  http_->Put(".*", refuse);
+  http_->Delete(".*", refuse);
+  http_->Patch(".*", refuse);
   http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
     const std::string what = res.status == 404 ? "not found: '" + req.path.substr(0, 100) + "'"
@@ -119,6 +136,9 @@ bool MapViewServer::Setup(std::string* error) {
   model_.Refresh();  // the first page load has data at once
   http_thread_ = std::thread([this] { http_->listen_after_bind(); });
   snapshot_thread_ = std::thread([this] { SnapshotLoop(); });
+  // httplib 0.11 has no "ready" signal, and a stop() before its accept loop runs is lost
+  // (Stop would then wait forever): wait, bounded, until it runs.
+  for (int i = 0; i < 2000 && !http_->is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   return true;
 }
 
@@ -142,13 +162,15 @@ std::string MapViewServer::url() const {
 }
 
 void MapViewServer::NoteRequest() {
-  bool wake;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    wake = Clock::now() - last_request_ > kClientActive;  // the loop sleeps: refresh at once
-    last_request_ = Clock::now();
-  }
-  if (wake) cv_.notify_all();
+  std::unique_lock<std::mutex> lock(mutex_);
+  const bool was_idle = Clock::now() - last_request_ > kClientActive;
+  last_request_ = Clock::now();
+  if (!was_idle) return;  // the loop is refreshing: the snapshot is at most one period old
+  // The snapshot thread slept: wake it and wait (bounded) for a fresh snapshot, so the first
+  // answer after a pause is not an old picture. This waits on the view's own thread only.
+  const int64_t seen = refreshes_;
+  cv_.notify_all();
+  cv_.wait_for(lock, std::chrono::seconds(1), [&] { return refreshes_ != seen || stopping_; });
 }
 
 void MapViewServer::SnapshotLoop() {
@@ -160,6 +182,8 @@ void MapViewServer::SnapshotLoop() {
       lock.unlock();
       model_.Refresh();
       lock.lock();
+      ++refreshes_;
+      cv_.notify_all();  // NoteRequest may wait for this one
       cv_.wait_for(lock, period, [this] { return stopping_; });
     } else {
       // Idle: no refresh until a request comes in (NoteRequest wakes us).

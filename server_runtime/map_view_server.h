@@ -72,9 +72,10 @@ class MapViewServer {
   int port_ = -1;
 
   std::atomic<int64_t> requests_{0}, api_requests_{0}, api_bytes_{0}, static_bytes_{0}, errors_{0};
-  std::mutex mutex_;  // guards last_request_, stopping_; leaf
+  std::mutex mutex_;  // guards last_request_, refreshes_, stopping_; leaf
   std::condition_variable cv_;
   std::chrono::steady_clock::time_point last_request_{};
+  int64_t refreshes_ = 0;
   bool stopping_ = false;
   std::thread http_thread_, snapshot_thread_;
 };
