@@ -42,8 +42,8 @@ bool PointMoved(const ViewPoint& a, const ViewPoint& b, double min_m) {
   return dx * dx + dy * dy + dz * dz > min_m * min_m;
 }
 
-/// Merge-joins two id-sorted lists: elements kept from `prev` keep their version unless
-/// `moved`, new ones get `version`, vanished ones become tombstones.
+/// Merge-joins two id-sorted lists: elements kept from `prev` keep their value and version
+/// unless `moved`, new ones get `version`, vanished ones become tombstones.
 template <typename T, typename Key, typename Moved>
 bool DiffSorted(const std::vector<T>& prev, std::vector<T>* next, uint64_t version, Key key, Moved moved,
                 std::vector<Tombstone>* removed) {
@@ -56,7 +56,13 @@ bool DiffSorted(const std::vector<T>& prev, std::vector<T>* next, uint64_t versi
       ++i;
     }
     if (i < prev.size() && key(prev[i]) == key(n)) {
-      n.changed = moved(prev[i], n) ? version : prev[i].changed;
+      // Below the threshold the element keeps the value clients already have, so a slow
+      // drift is measured from what was last sent and goes out once it adds up.
+      if (moved(prev[i], n)) {
+        n.changed = version;
+      } else {
+        n = prev[i];
+      }
       ++i;
     } else {
       n.changed = version;

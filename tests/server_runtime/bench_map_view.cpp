@@ -5,8 +5,11 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <atomic>
+#include <thread>
 #include <cstdio>
 
+#include "server_runtime/map_view_api.h"
 #include "server_runtime/map_view_server.h"
 #include "tests/server_runtime/map_view_fixture.h"
 
@@ -92,6 +95,55 @@ void SteadyState(ccm::testing::ViewBackend* b, ccm::server::MapViewServer* view,
               2 * gz / 1024.0 / polls, ms / polls, max_ms);
 }
 
+/// What the SLAM threads feel: the latency of a map write (AddMapPoint takes the Map's
+/// table lock exclusively) while the view refreshes back to back, against none refreshing.
+void WriterLatency(ccm::testing::ViewBackend* b, ccm::server::MapViewServer* view) {
+  auto map = b->MapOf(1);
+  uint64_t next = 1ull << 40;  // ids far from the fixture's
+  for (const int mode : {0, 1, 2}) {  // idle, 2 Hz (the view's rate), back to back
+    std::atomic<bool> done{false};
+    std::thread refresher([&] {
+      while (mode > 0 && !done) {
+        view->RefreshNow();
+        for (int i = 0; mode == 1 && i < 50 && !done; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    });
+    std::vector<double> us;
+    const auto until = Clock::now() + std::chrono::seconds(2);
+    while (Clock::now() < until) {
+      auto mp = std::make_shared<ccm::MapPoint>(ccm::MapPointId::Make(1, next++), Eigen::Vector3d(0, 0, 5),
+                                                ccm::KeyframeId::Make(1, 1), ccm::OrbDescriptor{});
+      const auto t0 = Clock::now();
+      map->map().AddMapPoint(mp);
+      us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+      map->map().EraseMapPoint(mp->id());
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    done = true;
+    refresher.join();
+    std::sort(us.begin(), us.end());
+    static const char* kMode[] = {"view idle", "view refreshing at 2 Hz", "view refreshing back to back"};
+    std::printf("  map write (AddMapPoint), %-28s: median %.1f us, p99 %.0f us, max %.0f us (%zu writes)\n", kMode[mode],
+                us[us.size() / 2], us[us.size() * 99 / 100], us.back(), us.size());
+  }
+}
+
+/// The API's own time (no socket) for the full map and a status.
+void ApiComputeTime(const ccm::ServerBackend& backend) {
+  ccm::server::MapViewModel model(&backend, ccm::server::MapViewOptions{});
+  model.Refresh();
+  const auto snap = model.Latest();
+  std::vector<double> ms;
+  size_t bytes = 0;
+  for (int i = 0; i < 10; ++i) {
+    const auto t0 = Clock::now();
+    bytes = ccm::server::HandleApiRequest(*snap, "/api/map", {{"since", "0"}}).body.size();
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("  /api/map?since=0 computed without the socket: median %.2f ms (%zu B)\n", ms[5], bytes);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -138,8 +190,10 @@ int main(int argc, char** argv) {
     PrintLatency(client, "/api/map?since=0", repeats);
     PrintLatency(client, "/api/map?since=0&min_weight=50", repeats);
     PrintLatency(client, "/api/events", repeats);
+    ApiComputeTime(b.backend());
     SteadyState(&b, view.get(), client, agents, points_per_kf, polls, &x);
   }
+  WriterLatency(&b, view.get());
   view->Stop();
   return 0;
 }

@@ -87,6 +87,29 @@ TEST(MapView, DeltasCarryOnlyWhatChangedAndReplayToTheFullMap) {
   EXPECT_EQ(client.version, full.version);
 }
 
+TEST(MapView, SlowDriftGoesOutOnceItAddsUp) {
+  testing::ViewBackend b;
+  MapViewModel model(&b.backend(), MapViewOptions{});  // min_change_m 2 mm
+  b.AddKeyframe(1, 0, 5);
+  model.Refresh();
+  Mirror client;
+  client.Apply(Get(model, "/api/map", {{"since", "0"}}));
+  auto kf = b.MapOf(1)->map().keyframe(KeyframeId::Make(1, 1));
+  std::vector<size_t> sent;
+  for (int step = 1; step <= 6; ++step) {  // 0.9 mm per refresh
+    kf->SetWorldFromCam(SE3(Eigen::Quaterniond::Identity(), {0.0009 * step, 0, 0}));
+    model.Refresh();
+    const json d = Get(model, "/api/map", {{"since", std::to_string(client.version)}});
+    sent.push_back(d["keyframes"].size());
+    client.Apply(d);
+    Mirror full;
+    full.Apply(Get(model, "/api/map", {{"since", "0"}}));
+    EXPECT_EQ(client.keyframes, full.keyframes) << "step " << step;  // the snapshot keeps what was sent
+  }
+  EXPECT_EQ(sent, (std::vector<size_t>{0, 0, 1, 0, 0, 1}));  // at 2.7 mm and 5.4 mm
+  EXPECT_NEAR(client.keyframes["1:1"][2].get<double>(), 0.0054, 0.0006);  // sent in mm
+}
+
 TEST(MapView, MinWeightDropsWeakEdgesAndOldClientsReloadInFull) {
   testing::ViewBackend b;
   MapViewOptions o;
