@@ -9,6 +9,8 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libceres-dev libsuitesparse-dev libopengv-dev
   libgtest-dev libgmock-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev libcereal-dev
   python3
+  # Live map view (docs/map-view.md): HTTP server, three.js for the page, Chromium for its test.
+  libcpp-httplib-dev libjs-three chromium
 )
 
 missing=()

@@ -13,7 +13,7 @@ const agentOf = (id) => id.split(':')[0];
 const counterOf = (id) => Number(id.split(':')[1]);
 
 const state = {
-  version: 0, eventsNext: 0, updates: 0, bytes: 0, minWeight: 50, status: null,
+  version: 0, eventsNext: 0, updates: 0, bytes: 0, minWeight: 100, status: null,
   keyframes: new Map(),  // id -> {map, p: [x y z qx qy qz qw]}
   points: new Map(),     // id -> [x, y, z]
   edges: new Map(),      // "a|b" -> weight
@@ -115,7 +115,10 @@ function rebuildScene() {
     }
   }
   clearGroup(layers.trajectories);
-  layers.trajectories.add(lineSegments(tp, tc, 1));
+  const trajectories = lineSegments(tp, tc, 1);
+  trajectories.material.depthTest = false;  // always on top of points and edges
+  trajectories.renderOrder = 1;
+  layers.trajectories.add(trajectories);
   // Covisibility edges.
   const ep = [], ec = [];
   for (const [key] of state.edges) {
@@ -125,7 +128,7 @@ function rebuildScene() {
     ec.push(0.45, 0.5, 0.58, 0.45, 0.5, 0.58);
   }
   clearGroup(layers.edges);
-  layers.edges.add(lineSegments(ep, ec, 0.35));
+  layers.edges.add(lineSegments(ep, ec, 0.18));
   // Points, coloured by the agent that created them (offset by the map of a keyframe is not
   // known per point: points follow the map of their creator's newest keyframe).
   const agentMap = new Map();
