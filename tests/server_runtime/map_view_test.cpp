@@ -7,6 +7,7 @@
 
 #include "server_runtime/map_view_api.h"
 #include "server_runtime/map_view_server.h"
+#include "server_runtime/server_outputs.h"
 #include "tests/server_runtime/map_view_fixture.h"
 
 // After every Eigen header: httplib.h brings <resolv.h>, whose `_res` macro breaks Eigen's
@@ -252,6 +253,41 @@ TEST(MapViewServer, StartFailsClearly) {
   o.port = first->port();
   EXPECT_FALSE(MapViewServer::Start(o, &b.backend(), {}, &error));
   EXPECT_NE(error.find(std::to_string(first->port())), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ccm::server
+
+namespace ccm::server {
+namespace {
+
+// ccm_server's part of the status: each agent's link from its heartbeats, merged per agent.
+TEST(MapView, ServerHostStatusShowsLinksAndMergesPerAgent) {
+  ServerCommStats comm;
+  comm.agents[2].alive = true;
+  comm.agents[2].tracking_state = 2;
+  comm.agents[2].kfs_sent = 40;
+  comm.agents[2].kfs_acked = 38;
+  comm.agents[3].tracking_state = 9;  // not a state the agent sends
+  rt::TopicCountersSnapshot t;
+  t.topic = "ccm/keyframes";
+  t.direction = "in";
+  t.payload_bytes = 1234;
+  const json host = MapViewHostStatus(comm, {t});
+  EXPECT_EQ(host["agents"]["2"]["tracking"], "lost");
+  EXPECT_EQ(host["agents"]["3"]["tracking"], "unknown");
+  EXPECT_EQ(host["traffic"][0]["bytes"].get<int>(), 1234);
+
+  testing::ViewBackend b;
+  b.AddKeyframe(2, 0, 5);
+  MapViewModel model(&b.backend(), MapViewOptions{}, [&] { return MapViewHostStatus(comm, {t}); });
+  model.Refresh();
+  const json s = Get(model, "/api/status", {});
+  ASSERT_EQ(s["agents"].size(), 2u);  // agent 2 (registered + link), agent 3 (link only)
+  EXPECT_EQ(s["agents"][0]["keyframes"].get<int>(), 1);
+  EXPECT_EQ(s["agents"][0]["kfs_acked"].get<int>(), 38);
+  EXPECT_TRUE(s["agents"][0]["alive"].get<bool>());
+  EXPECT_EQ(s["host"]["traffic"][0]["topic"], "ccm/keyframes");
 }
 
 }  // namespace
