@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
   }
   if (config.vocabulary.empty()) config.vocabulary = CCM_DEFAULT_VOCABULARY;
   if (const std::string problem = config.Validate(); !problem.empty()) return Fail(problem);
+  if (const std::string problem = map_view.Validate(); map_view.port != -1 && !problem.empty()) return Fail(problem);
   if (config.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
   if (!rt::SetupLogging(config.log_level, &error)) return Fail(error);
   if (session.fault.drop_probability == 0.0 && session.fault.delay_ms == 0.0) {

@@ -57,10 +57,11 @@ struct ViewEdge {
   uint64_t changed = 0;
 };
 
+/// A removed element, remembered so that clients behind get told.
 struct Tombstone {
-  uint64_t id = 0;  ///< element id; edges: index into edge_tombstones' pairs
-  uint64_t b = 0;   ///< second keyframe of a removed edge (0 otherwise)
-  uint64_t version = 0;
+  uint64_t id = 0;       ///< keyframe or point id; an edge's first keyframe
+  uint64_t b = 0;        ///< an edge's second keyframe (0 otherwise)
+  uint64_t version = 0;  ///< removed in this version
 };
 
 /// One refresh's timing, for the status and docs/map-view.md.

@@ -173,6 +173,8 @@ int main(int argc, char** argv) {
   a.replay.server.redundancy.enabled = !a.no_redundancy;
   a.replay.final_global_ba = !a.no_final_ba;
   if (!ccm::ParseDatasetFormat(a.format)) return Fail("--format must be auto, euroc, tum or kitti");
+  if (a.http_linger_s != 0.0 && !a.map_view.enabled()) return Fail("--http-linger needs --http PORT");
+  if (const std::string e = a.map_view.Validate(); a.map_view.port != -1 && !e.empty()) return Fail(e);
   if (const std::string e = a.replay.Validate(); !e.empty()) return Fail(e);
   if (a.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
   std::string error;
@@ -228,8 +230,11 @@ int main(int argc, char** argv) {
     view_status.Update(done, true);
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);
-    std::printf("map view stays on %s (%s)\n", view->url().c_str(),
-                a.http_linger_s < 0 ? "until Ctrl-C" : (std::to_string(a.http_linger_s) + " s").c_str());
+    if (a.http_linger_s < 0) {
+      std::printf("map view stays on %s (until Ctrl-C)\n", view->url().c_str());
+    } else {
+      std::printf("map view stays on %s (%.0f s)\n", view->url().c_str(), a.http_linger_s);
+    }
     std::fflush(stdout);
     const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.http_linger_s);
     while (!g_stop && (a.http_linger_s < 0 || std::chrono::steady_clock::now() < until)) {
