@@ -75,9 +75,16 @@ void MapViewModel::BuildStatus(MapViewSnapshot* next, double* max_hold_us) {
     }
     if (const auto it = queues.agent_batches.find(id); it != queues.agent_batches.end()) a["queue"] = it->second;
   }
-  nlohmann::json host = host_status_ ? host_status_() : nlohmann::json::object();
+  nlohmann::json host = nlohmann::json::object();
+  try {
+    if (host_status_) host = host_status_();
+  } catch (const std::exception& e) {  // the view stays up; the panel shows why facts are missing
+    host = {{"error", std::string("host status failed: ") + e.what()}};
+  }
   if (host.is_object() && host.contains("agents") && host["agents"].is_object()) {
     for (auto& [key, extra] : host["agents"].items()) {
+      const bool numeric = !key.empty() && key.size() <= 5 && key.find_first_not_of("0123456789") == std::string::npos;
+      if (!numeric || !extra.is_object()) continue;  // agents are keyed by their id
       if (!agents.contains(key)) agents[key] = {{"id", std::stoi(key)}, {"keyframes", 0}};
       agents[key].update(extra);
     }
