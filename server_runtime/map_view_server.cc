@@ -77,13 +77,13 @@ bool MapViewServer::Setup(std::string* error) {
   http_ = std::make_unique<httplib::Server>();
   const size_t threads = options_.threads;
   http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  http_->set_payload_max_length(64 * 1024);
+  http_->set_payload_max_length(64 * 1024);  // the API takes no request bodies
   // httplib's default adds SO_REUSEPORT, which lets a second server bind the same port
   // silently; keep SO_REUSEADDR only, so a port in use is an error.
   http_->set_socket_options([](socket_t sock) {
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
-  });  // the API takes no request bodies
+  });
   http_->set_mount_point("/", root);
   http_->set_mount_point("/three", options_.three_dir);
   http_->Get(R"(/api/.*)", [this](const httplib::Request& req, httplib::Response& res) {
