@@ -10,6 +10,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev libcereal-dev
   python3 openssl
   dpkg-dev file  # Debian packages (cpack DEB: dpkg-shlibdeps, file); ctest packaging_debian
+  # Live map view (docs/map-view.md): HTTP server, three.js for the page, Chromium for its test.
+  libcpp-httplib-dev libjs-three chromium
 )
 
 missing=()

@@ -19,6 +19,7 @@
 #include "runtime_common/install_paths.h"
 #include "runtime_common/logging.h"
 #include "server_runtime/backend_runner.h"
+#include "server_runtime/map_view_server.h"
 #include "server_runtime/server_comm.h"
 #include "server_runtime/server_outputs.h"
 #include "server_runtime/server_status.h"
@@ -95,6 +96,7 @@ int main(int argc, char** argv) {
   std::string config_path, out_dir;
   double duration_s = 0.0, idle_exit_s = 0.0, progress_s = 2.0;
   bool no_final_ba = false;
+  server::MapViewServerOptions map_view;
   CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
   app.add_option("-c,--config", config_path, "YAML config file (keys: see docs/configuration.md)")
       ->check(CLI::ExistingFile);
@@ -120,6 +122,7 @@ int main(int argc, char** argv) {
   app.add_option("--progress", progress_s, "progress line period [s]")->capture_default_str();
   app.add_option("--drop", session.fault.drop_probability, "fault injection: drop probability of received datagrams");
   app.add_option("--delay-ms", session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
+  server::AddMapViewOptions(&app, &map_view);
   CLI11_PARSE(app, argc, argv);
   google::InitGoogleLogging(argv[0]);
   FLAGS_minloglevel = google::GLOG_ERROR;  // Ceres' rejected-step warnings are noise here
@@ -144,6 +147,7 @@ int main(int argc, char** argv) {
   }
   if (config.vocabulary.empty()) config.vocabulary = rt::FindDataFile(kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
   if (const std::string problem = config.Validate(); !problem.empty()) return Fail(problem);
+  if (const std::string problem = map_view.Validate(); map_view.port != -1 && !problem.empty()) return Fail(problem);
   if (config.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
   if (!rt::SetupLogging(config.log_level, &error)) return Fail(error);
   if (!config.map_file.empty()) {
@@ -194,6 +198,15 @@ int main(int argc, char** argv) {
   spdlog::info("server up on domain {} (QoS {}, vocabulary {}: {} words, max {} agents, map sharing k = {})",
                config.domain_id, comm->session().options().qos_file, config.vocabulary, vocabulary->num_words(),
                config.max_agents, config.map_sharing ? config.neighbourhood_k : 0);
+  std::unique_ptr<server::MapViewServer> view;
+  if (map_view.enabled()) {
+    const server::ServerComm* comm_ptr = comm.get();
+    view = server::MapViewServer::Start(map_view, backend.get(), [comm_ptr] {
+      return server::MapViewHostStatus(comm_ptr->Stats(), comm_ptr->Traffic());
+    }, &error);
+    if (!view) return Fail(error, 1);
+    spdlog::info("map view on {}", view->url());
+  }
   comm->Start();
 
   using Clock = std::chrono::steady_clock;
@@ -239,6 +252,7 @@ int main(int argc, char** argv) {
     }
   }
   spdlog::info("stopping{}: finishing queued work", g_stop ? " on a signal" : "");
+  if (view) view->Stop();  // before the comm module its status reads
   comm->Stop();
   runner->Stop();
   backend->ProcessAllQueued();

@@ -1,5 +1,6 @@
 #include "server_runtime/server_outputs.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -52,6 +53,29 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                             {"loops", backend.loops},
                             {"traffic", topics}};
   return j.dump(indent);
+}
+
+nlohmann::json MapViewHostStatus(const ServerCommStats& comm, const std::vector<rt::TopicCountersSnapshot>& traffic) {
+  static const char* kTracking[] = {"initializing", "tracking", "lost"};
+  nlohmann::json agents = nlohmann::json::object();
+  for (const auto& [id, l] : comm.agents) {
+    const bool known = l.tracking_state >= 0 && l.tracking_state <= 2;
+    agents[std::to_string(id)] = {{"alive", l.alive},
+                                  {"tracking", known ? kTracking[l.tracking_state] : "unknown"},
+                                  {"last_seen_s", std::round(l.last_seen_s * 10.0) / 10.0},
+                                  {"kfs_sent", l.kfs_sent},
+                                  {"kfs_acked", l.kfs_acked},
+                                  {"kfs_lost", l.kfs_lost},
+                                  {"leaves", l.leaves},
+                                  {"batches_dropped", l.batches_dropped}};
+  }
+  nlohmann::json topics = nlohmann::json::array();
+  for (const auto& t : traffic) {
+    topics.push_back({{"topic", t.topic}, {"direction", t.direction}, {"samples", t.samples},
+                      {"bytes", t.payload_bytes}, {"lost", t.samples_lost}, {"queue_dropped", t.queue_dropped}});
+  }
+  return {{"source", "ccm_server"}, {"elapsed_s", std::round(comm.elapsed_s * 10.0) / 10.0}, {"agents", agents},
+          {"traffic", topics}, {"rejected", comm.rejected}, {"refused_agents", comm.refused_agents}};
 }
 
 bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, const ServerCommStats& comm,

@@ -7,6 +7,8 @@
 
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "server_runtime/server_comm.h"
 #include "slam_core/server/server_backend.h"
 
@@ -18,5 +20,9 @@ bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, co
 /// The one-line JSON the server prints on exit (also the body of server.json).
 std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::TopicCountersSnapshot>& traffic,
                             const BackendStats& backend, int indent = -1);
+
+/// What ccm_server adds to the map view's status (map_view_server.h): each agent's link
+/// (alive, tracking state from its heartbeat, keyframes sent/acknowledged) and DDS traffic.
+nlohmann::json MapViewHostStatus(const ServerCommStats& comm, const std::vector<rt::TopicCountersSnapshot>& traffic);
 
 }  // namespace ccm::server

@@ -7,9 +7,14 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
+#include <thread>
 
+#include "server_runtime/map_view_server.h"
 #include "slam_core/io/dataset.h"
 #include "runtime_common/install_paths.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
@@ -35,6 +40,37 @@ struct Args {
   std::string save_map, load_map, record;
   ccm::replay::ReplayOptions replay;
   bool no_sharing = false, no_redundancy = false, no_final_ba = false;
+  ccm::server::MapViewServerOptions map_view;
+  double http_linger_s = 0.0;
+};
+
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop = true; }
+
+/// The replay's part of the map view's status: agent names and how far each input is.
+class ReplayViewStatus {
+ public:
+  explicit ReplayViewStatus(const std::vector<ccm::replay::ReplayAgentInput>& inputs) {
+    for (const auto& in : inputs) names_[in.id] = in.name;
+  }
+  void Update(const ccm::replay::ReplayProgress& p, bool finished) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    progress_ = p;
+    finished_ = finished;
+  }
+  nlohmann::json Json() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    nlohmann::json agents = nlohmann::json::object();
+    for (const auto& [id, name] : names_) agents[std::to_string(id)] = {{"name", name}};
+    return {{"source", "ccm_replay"}, {"agents", agents}, {"frames_done", progress_.frames_done},
+            {"frames_total", progress_.frames_total}, {"finished", finished_}};
+  }
+
+ private:
+  mutable std::mutex mutex_;  // leaf
+  std::map<ccm::AgentId, std::string> names_;
+  ccm::replay::ReplayProgress progress_;
+  bool finished_ = false;
 };
 
 int Fail(const std::string& message, int code = 2) {
@@ -131,11 +167,16 @@ int main(int argc, char** argv) {
   app.add_option("--load-map", a.load_map, "start from a saved map stack");
   app.add_option("--save-map", a.save_map, "save the map stack at the end");
   app.add_option("--record", a.record, "write every agent batch to this file (replayable without the VO)");
+  ccm::server::AddMapViewOptions(&app, &a.map_view);
+  app.add_option("--http-linger", a.http_linger_s,
+                 "with --http: keep serving the map view this long after the replay (-1: until Ctrl-C) [s]");
   CLI11_PARSE(app, argc, argv);
   a.replay.map_sharing = !a.no_sharing;
   a.replay.server.redundancy.enabled = !a.no_redundancy;
   a.replay.final_global_ba = !a.no_final_ba;
   if (!ccm::ParseDatasetFormat(a.format)) return Fail("--format must be auto, euroc, tum or kitti");
+  if (a.http_linger_s != 0.0 && !a.map_view.enabled()) return Fail("--http-linger needs --http PORT");
+  if (const std::string e = a.map_view.Validate(); a.map_view.port != -1 && !e.empty()) return Fail(e);
   if (const std::string e = a.replay.Validate(); !e.empty()) return Fail(e);
   if (a.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
   std::string error;
@@ -155,9 +196,20 @@ int main(int argc, char** argv) {
   }
   spdlog::info("replaying {} agents ({}), vocabulary {} words", inputs.size(), a.replay.threaded ? "threaded" : "deterministic",
                vocab->num_words());
+  ReplayViewStatus view_status(inputs);
+  std::unique_ptr<ccm::server::MapViewServer> view;
+  if (a.map_view.enabled()) {
+    view = ccm::server::MapViewServer::Start(a.map_view, backend.get(), [&view_status] { return view_status.Json(); },
+                                             &error);
+    if (!view) return Fail(error);
+    // Tests and scripts read this line for the port (--http 0 picks a free one).
+    std::printf("map view on %s\n", view->url().c_str());
+    std::fflush(stdout);
+  }
   ccm::replay::Recording recording;
   if (!a.record.empty()) a.replay.on_batch = [&recording](const ccm::AgentBatch& b) { recording.batches.push_back(b); };
-  const auto result = ccm::replay::RunReplay(std::move(inputs), a.replay, backend.get(), [](const auto& p) {
+  const auto result = ccm::replay::RunReplay(std::move(inputs), a.replay, backend.get(), [&view_status](const auto& p) {
+    view_status.Update(p, false);
     size_t kfs = 0;
     for (const auto& m : p.maps) kfs += m.keyframes;
     spdlog::info("{:5.0f} s  frames {}/{}  maps {}  keyframes {}  fusions {}  loops {}", p.elapsed_s, p.frames_done,
@@ -173,5 +225,25 @@ int main(int argc, char** argv) {
     if (!ccm::replay::SaveRecording(recording, a.record, &error)) return Fail(error, 1);
   }
   std::printf("outputs in %s (summary.json, *_keyframes.tum, map.ply, map_top.png)\n", a.out.c_str());
+  std::fflush(stdout);
+  if (view && a.http_linger_s != 0.0) {
+    ccm::replay::ReplayProgress done;
+    for (const auto& r : result.agents) done.frames_done += r.frames;
+    done.frames_total = done.frames_done;
+    view_status.Update(done, true);
+    std::signal(SIGINT, OnSignal);
+    std::signal(SIGTERM, OnSignal);
+    if (a.http_linger_s < 0) {
+      std::printf("map view stays on %s (until Ctrl-C)\n", view->url().c_str());
+    } else {
+      std::printf("map view stays on %s (%.0f s)\n", view->url().c_str(), a.http_linger_s);
+    }
+    std::fflush(stdout);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.http_linger_s);
+    while (!g_stop && (a.http_linger_s < 0 || std::chrono::steady_clock::now() < until)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }
+  if (view) view->Stop();
   return 0;
 }
