@@ -38,6 +38,8 @@ if(CCM_BUILD_RUNTIMES)
     install(TARGETS ccm_server ccm_ctl RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT server)
     ccm_install_template(deploy/config/server-daemon.yaml.in etc server.yaml server)
     ccm_install_template(deploy/systemd/ccm-server.service.in systemd ccm-server.service server)
+    # The live map view page (docs/map-view.md); ccm_server/ccm_replay find it beside themselves.
+    install(DIRECTORY server_runtime/web/ DESTINATION ${CCM_DATA_INSTALL_DIR}/web COMPONENT common)
   endif()
 endif()
 if(NOT CCM_AGENT_ONLY)
@@ -79,6 +81,8 @@ set(CPACK_COMPONENT_SERVER_DEPENDS common)
 set(CPACK_COMPONENT_TOOLS_DEPENDS common)
 # The discovery server script needs `fastdds` (Debian: fastdds-tools).
 set(CPACK_DEBIAN_COMMON_PACKAGE_SUGGESTS "fastdds-tools")
+# The live map view serves three.js from Debian's libjs-three.
+set(CPACK_DEBIAN_SERVER_PACKAGE_RECOMMENDS "libjs-three")
 # Operators edit these; dpkg keeps their changes on upgrade.
 file(WRITE ${CMAKE_BINARY_DIR}/deb-control/common/conffiles "/etc/ccm-slam-dds/wifi.xml\n")
 file(WRITE ${CMAKE_BINARY_DIR}/deb-control/server/conffiles "/etc/ccm-slam-dds/server.yaml\n")

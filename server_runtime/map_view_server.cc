@@ -10,6 +10,8 @@
 // templates parsed after it.
 #include <httplib.h>
 
+#include "runtime_common/install_paths.h"
+
 #ifndef CCM_MAP_VIEW_WEB_ROOT
 #define CCM_MAP_VIEW_WEB_ROOT ""
 #endif
@@ -64,7 +66,9 @@ std::unique_ptr<MapViewServer> MapViewServer::Start(const MapViewServerOptions& 
 
 bool MapViewServer::Setup(std::string* error) {
   namespace fs = std::filesystem;
-  const std::string root = options_.web_root.empty() ? CCM_MAP_VIEW_WEB_ROOT : options_.web_root;
+  // Default: the installed page beside the binary (packages), else the source tree's.
+  const std::string root =
+      options_.web_root.empty() ? rt::FindDataFile("web", CCM_MAP_VIEW_WEB_ROOT) : options_.web_root;
   if (root.empty() || !fs::exists(fs::path(root) / "index.html")) {
     *error = "map view page not found: no index.html in '" + root + "' (give --http-root DIR)";
     return false;
