@@ -52,6 +52,8 @@ class OrbExtractor {
   const ScalePyramid& pyramid() const { return pyramid_; }
   /// Target number of keypoints per level (geometric series, level 0 gets the most).
   const std::vector<int>& features_per_level() const { return features_per_level_; }
+  /// FAST threshold each level will use on the next frame (adaptive; options().ini otherwise).
+  const std::vector<int>& level_thresholds() const { return level_threshold_; }
   /// Pyramid images of the last Extract() call (level 0 is the grey input).
   const std::vector<cv::Mat>& level_images() const { return levels_; }
 

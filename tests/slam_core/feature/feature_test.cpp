@@ -163,19 +163,60 @@ TEST(OrbExtractor, FillsBudgetSpreadOverImageAndLevels) {
   }
 }
 
+// Deterministic for a given image sequence: the adaptive FAST threshold carries state from
+// one frame to the next, so two extractors fed the same frames agree frame by frame.
 TEST(OrbExtractor, IsDeterministic) {
   OrbExtractor a{OrbExtractorOptions{}}, b{OrbExtractorOptions{}};
   const cv::Mat img = test::MakeTexture(kW, kH, 5);
-  const FrameFeatures fa = a.Extract(img), fa2 = a.Extract(img), fb = b.Extract(img);
-  ASSERT_EQ(fa.size(), fb.size());
-  ASSERT_EQ(fa.size(), fa2.size());
-  for (size_t i = 0; i < fa.size(); ++i) {
-    EXPECT_EQ(fa.keypoints[i].u, fb.keypoints[i].u);
-    EXPECT_EQ(fa.keypoints[i].v, fb.keypoints[i].v);
-    EXPECT_EQ(fa.keypoints[i].angle_deg, fb.keypoints[i].angle_deg);
-    EXPECT_EQ(fa.descriptors[i], fb.descriptors[i]);
-    EXPECT_EQ(fa.descriptors[i], fa2.descriptors[i]);
+  for (int frame = 0; frame < 3; ++frame) {
+    const FrameFeatures fa = a.Extract(img), fb = b.Extract(img);
+    ASSERT_EQ(fa.size(), fb.size());
+    for (size_t i = 0; i < fa.size(); ++i) {
+      EXPECT_EQ(fa.keypoints[i].u, fb.keypoints[i].u);
+      EXPECT_EQ(fa.keypoints[i].v, fb.keypoints[i].v);
+      EXPECT_EQ(fa.keypoints[i].angle_deg, fb.keypoints[i].angle_deg);
+      EXPECT_EQ(fa.descriptors[i], fb.descriptors[i]);
+    }
   }
+  // With a fixed threshold, the same image gives the same features every time.
+  OrbExtractorOptions fixed;
+  fixed.adapt_high_ratio = 0.0;
+  OrbExtractor c{fixed};
+  const FrameFeatures f1 = c.Extract(img), f2 = c.Extract(img);
+  ASSERT_EQ(f1.size(), f2.size());
+  for (size_t i = 0; i < f1.size(); ++i) EXPECT_EQ(f1.descriptors[i], f2.descriptors[i]);
+}
+
+// Dense texture: the threshold rises over the first frames, the keypoint budget and the
+// spread over the image stay (the point of adapting: fewer corners to score, same output).
+TEST(OrbExtractor, AdaptiveThresholdKeepsCountAndCoverageOnDenseTexture) {
+  const cv::Mat img = test::MakeTexture(kW, kH, 5);
+  OrbExtractorOptions fixed;
+  fixed.adapt_high_ratio = 0.0;
+  OrbExtractor adaptive{OrbExtractorOptions{}}, reference{fixed};
+  FrameFeatures fa;
+  for (int frame = 0; frame < 20; ++frame) fa = adaptive.Extract(img);
+  const FrameFeatures ff = reference.Extract(img);
+  EXPECT_GT(adaptive.level_thresholds()[0], OrbExtractorOptions{}.ini_fast_threshold) << "never adapted";
+  EXPECT_EQ(reference.level_thresholds()[0], OrbExtractorOptions{}.ini_fast_threshold);
+  EXPECT_EQ(fa.size(), ff.size());
+  auto occupied = [](const FrameFeatures& f) {
+    std::vector<int> cells(8 * 5, 0);
+    for (const auto& kp : f.keypoints) ++cells[std::min(4, static_cast<int>(kp.v * 5 / kH)) * 8 + std::min(7, static_cast<int>(kp.u * 8 / kW))];
+    return std::count_if(cells.begin(), cells.end(), [](int c) { return c > 0; });
+  };
+  EXPECT_GE(occupied(fa), occupied(ff) - 1);
+  // Some keypoints differ (stronger corners win), but most are the same.
+  int same = 0;
+  for (const auto& a : fa.keypoints) {
+    for (const auto& b : ff.keypoints) {
+      if (a.level == b.level && a.u == b.u && a.v == b.v) {
+        ++same;
+        break;
+      }
+    }
+  }
+  EXPECT_GT(same, static_cast<int>(fa.size()) / 3);
 }
 
 TEST(OrbExtractor, HandlesEmptySmallAndColourImages) {
