@@ -153,7 +153,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   std::shared_ptr<const Vocabulary> vocabulary;
   // Default: the installed vocabulary beside the binary, else the build tree's.
   const std::string vocabulary_path =
-      o.vocabulary.empty() ? rt::FindDataFile("vocabulary/sim_vocab_k10_l5.ccmvoc", CCM_DEFAULT_VOCABULARY) : o.vocabulary;
+      o.vocabulary.empty() ? rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY) : o.vocabulary;
   if (vocabulary_path.empty()) {
     spdlog::info("no vocabulary built in: relocalization matches against every local map point (give --vocab FILE)");
   } else if (o.vocabulary != "none") {

@@ -28,8 +28,6 @@
 #ifndef CCM_DEFAULT_VOCABULARY
 #define CCM_DEFAULT_VOCABULARY ""
 #endif
-// The vocabulary `cmake --install` ships (the simulator one; real sites train their own).
-constexpr const char* kInstalledVocabulary = "vocabulary/sim_vocab_k10_l5.ccmvoc";
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -145,7 +143,7 @@ int main(int argc, char** argv) {
     if (*map_file_opt) config.map_file = cli.map_file;
     if (*autosave_opt) config.autosave_s = cli.autosave_s;
   }
-  if (config.vocabulary.empty()) config.vocabulary = rt::FindDataFile(kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
+  if (config.vocabulary.empty()) config.vocabulary = rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
   if (const std::string problem = config.Validate(); !problem.empty()) return Fail(problem);
   if (const std::string problem = map_view.Validate(); map_view.port != -1 && !problem.empty()) return Fail(problem);
   if (config.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");

@@ -35,7 +35,7 @@ struct Args {
   std::vector<std::string> datasets;
   std::string format = "auto";
   // The installed copy first (install_paths.h), then the build tree's.
-  std::string vocabulary = ccm::rt::FindDataFile("vocabulary/sim_vocab_k10_l5.ccmvoc", CCM_DEFAULT_VOCABULARY);
+  std::string vocabulary = ccm::rt::FindDataFile(ccm::rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
   std::string out = "replay-out";
   std::string save_map, load_map, record;
   ccm::replay::ReplayOptions replay;
