@@ -16,6 +16,7 @@
 
 #include "server_runtime/map_view_server.h"
 #include "slam_core/io/dataset.h"
+#include "agent_runtime/agent_config.h"
 #include "runtime_common/install_paths.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tests/sim/sim_frame_source.h"
@@ -38,6 +39,7 @@ struct Args {
   std::string vocabulary = ccm::rt::FindDataFile(ccm::rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
   std::string out = "replay-out";
   std::string save_map, load_map, record;
+  std::string agent_config;  // ccm_agent YAML: its vo section, N, B, keyframe delay and sharing
   ccm::replay::ReplayOptions replay;
   bool no_sharing = false, no_redundancy = false, no_final_ba = false;
   ccm::server::MapViewServerOptions map_view;
@@ -159,8 +161,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--threaded", a.replay.threaded, "agents and server stages on their own threads (not deterministic)");
   app.add_flag("--no-sharing", a.no_sharing, "do not send the server's neighbourhood back to the agents");
-  app.add_option("--keyframe-delay", a.replay.new_keyframe_delay_s,
+  auto* delay_opt = app.add_option("--keyframe-delay", a.replay.new_keyframe_delay_s,
                  "a new keyframe is sent once this old, data time [s] (as ccm_agent)")->capture_default_str();
+  app.add_option("--agent-config", a.agent_config,
+                 "ccm_agent YAML for every agent: its vo section, max_keyframes, buffer_keyframes, "
+                 "new_keyframe_delay_s and map_sharing (the flags above win)")->check(CLI::ExistingFile);
   app.add_flag("--no-redundancy", a.no_redundancy, "keep every keyframe (no redundancy removal)");
   app.add_option("--theta", a.replay.server.redundancy.theta, "redundancy threshold")->capture_default_str();
   app.add_flag("--no-final-ba", a.no_final_ba, "skip the global BA of every map at the end");
@@ -172,6 +177,17 @@ int main(int argc, char** argv) {
                  "with --http: keep serving the map view this long after the replay (-1: until Ctrl-C) [s]");
   CLI11_PARSE(app, argc, argv);
   a.replay.map_sharing = !a.no_sharing;
+  if (!a.agent_config.empty()) {
+    // Replay what a deployed agent would do with this file (tuning without DDS).
+    ccm::agent::AgentConfig config;
+    std::string config_error;
+    if (!ccm::agent::LoadAgentConfig(a.agent_config, &config, &config_error)) return Fail(config_error);
+    a.replay.vo = config.vo;
+    a.replay.vo.bound.max_keyframes = config.max_keyframes;
+    a.replay.vo.bound.max_unacked_buffer = config.buffer_keyframes;
+    if (delay_opt->count() == 0) a.replay.new_keyframe_delay_s = config.new_keyframe_delay_s;
+    a.replay.map_sharing = config.map_sharing && !a.no_sharing;
+  }
   a.replay.server.redundancy.enabled = !a.no_redundancy;
   a.replay.final_global_ba = !a.no_final_ba;
   if (!ccm::ParseDatasetFormat(a.format)) return Fail("--format must be auto, euroc, tum or kitti");
