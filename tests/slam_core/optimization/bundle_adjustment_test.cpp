@@ -155,6 +155,26 @@ TEST(OptimizePose, RecoversPoseWith20PercentOutliersFisheye) {
   ExpectPoseOnlyRecovers(*MakeFisheye(), 8);
 }
 
+// Noise-free observations: the hand-written Levenberg-Marquardt (pose_optimizer.cc) must
+// reach the exact pose; a wrong tangent Jacobian would stall far from it in 4 x 10 steps.
+TEST(OptimizePose, ReachesExactPoseWithoutNoiseFromLargeError) {
+  const auto camera = testing::MakeTestCamera();
+  PoseOnlyCase c = MakePoseOnlyCase(*camera, 11);
+  for (size_t i = 0; i < c.obs.size(); ++i) {
+    Eigen::Vector2d uv;
+    ASSERT_TRUE(camera->Project(c.truth.inverse() * c.obs[i].point_w, &uv));
+    c.obs[i].uv_px = uv;  // outliers included: all consistent now
+  }
+  SE3 pose(c.truth.rotation() * Eigen::Quaterniond(Eigen::AngleAxisd(8.0 * M_PI / 180, Eigen::Vector3d(1, -0.4, 0.3).normalized())),
+           c.truth.translation() + Eigen::Vector3d(-0.2, 0.1, 0.15));
+  const OptimizationSummary s = OptimizePose(*camera, c.obs, &pose);
+  ASSERT_TRUE(s.usable) << s.message;
+  EXPECT_LT((pose.translation() - c.truth.translation()).norm(), 1e-6);
+  EXPECT_LT(RotationAngleDeg(pose.rotation(), c.truth.rotation()), 1e-5);
+  EXPECT_LT(s.final_cost, 1e-9);
+  EXPECT_EQ(s.num_inliers, static_cast<int>(c.obs.size()));
+}
+
 TEST(OptimizePose, TooFewObservationsIsNotUsable) {
   SE3 pose;
   const OptimizationSummary s = OptimizePose(*testing::MakeTestCamera(), {}, &pose);
