@@ -22,6 +22,7 @@ FRAMES="${DEMO_FRAMES:-1601}"   # all of hall3: 80 s of flight per agent
 RATE="${DEMO_RATE:-0.5}"        # half real time: three VOs and the server share 2 cores
 OUT="${DEMO_OUT:-$PWD/demo-out}"
 DOMAIN="${DEMO_DOMAIN:-42}"
+read -r -a AGENT_ARGS <<<"${DEMO_AGENT_ARGS:-}"  # extra ccm_agent arguments, e.g. "--config my-agent.yaml"
 rm -rf "$OUT"
 mkdir -p "$OUT"
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
@@ -35,7 +36,7 @@ pids=()
 for id in 1 2 3; do
   "$BIN/agent_runtime/ccm_agent" "${common[@]}" --agent-id "$id" --sim hall3 --sim-agent $((id - 1)) \
     --max-frames "$FRAMES" --rate "$RATE" --drain 60 --ground-truth "$OUT/agent${id}_ground_truth.tum" \
-    >"$OUT/agent$id.log" 2>&1 &
+    ${AGENT_ARGS[@]+"${AGENT_ARGS[@]}"} >"$OUT/agent$id.log" 2>&1 &
   pids+=($!)
 done
 # Live progress: the newest progress line of every process.
