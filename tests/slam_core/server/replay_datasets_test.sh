@@ -24,4 +24,19 @@ if "$replay" --dataset "$work/data/agent0" --vocab "$work/nope.ccmvoc" --out "$w
   echo "a missing vocabulary was accepted"; exit 1
 fi
 grep -q "nope.ccmvoc" "$work/bad2.log" || { echo "the error does not name the missing vocabulary"; cat "$work/bad2.log"; exit 1; }
+# --agent-config: the agents run with a deployed agent's YAML (here a sparse keyframe rule:
+# several times fewer keyframes than the default run above), and a bad file is refused.
+printf 'vo:\n  kf_tracked_ratio: 0.6\n' > "$work/sparse.yaml"
+"$replay" --dataset "$work/data/agent0" --vocab "$vocab" --agent-config "$work/sparse.yaml" --no-final-ba \
+  --out "$work/sparse" > "$work/sparse.log" 2>&1 || { cat "$work/sparse.log"; exit 1; }
+kfs() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["agents"][0]["keyframes_created"])' "$1"; }
+default_kfs=$(kfs "$work/out/summary.json") sparse_kfs=$(kfs "$work/sparse/summary.json")
+echo "agent0 keyframes: default $default_kfs, kf_tracked_ratio 0.6: $sparse_kfs"
+[ $((2 * sparse_kfs)) -lt "$default_kfs" ] || { echo "--agent-config did not reach the VO"; exit 1; }
+printf 'vo:\n  kf_tracked_ratio: 2\n' > "$work/bad.yaml"
+if "$replay" --dataset "$work/data/agent0" --vocab "$vocab" --agent-config "$work/bad.yaml" --out "$work/bad" \
+  > "$work/bad3.log" 2>&1; then
+  echo "an invalid agent config was accepted"; exit 1
+fi
+grep -q "kf_tracked_ratio" "$work/bad3.log" || { echo "the error does not name the bad key"; cat "$work/bad3.log"; exit 1; }
 echo "OK"
