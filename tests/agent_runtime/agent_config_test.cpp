@@ -71,5 +71,14 @@ TEST(AgentConfig, OnboardTemplateLoads) {
   EXPECT_NE(error.find("opencv_threads"), std::string::npos) << error;
 }
 
+// The low-bandwidth example (docs/vo.md "Keyframe economy"): its sparse keyframe rule.
+TEST(AgentConfig, LowBandwidthExampleLoads) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(std::string(CCM_SOURCE_DIR) + "/deploy/config/agent-lowband.yaml", &c, &error)) << error;
+  EXPECT_LT(c.vo.keyframe.tracked_ratio, AgentConfig().vo.keyframe.tracked_ratio);
+  EXPECT_GT(c.vo.keyframe.max_interval_s, 0.0);
+}
+
 }  // namespace
 }  // namespace ccm::agent
