@@ -4,6 +4,13 @@
 
 namespace ccm::agent {
 
+VoOptions AgentConfig::EffectiveVo() const {
+  VoOptions v = vo;
+  v.bound.max_keyframes = max_keyframes;
+  v.bound.max_unacked_buffer = buffer_keyframes;
+  return v;
+}
+
 std::string AgentConfig::Validate() const {
   if (agent_id < 1 || agent_id > 65535) return "agent_id must be in 1..65535";
   if (domain_id < 0 || domain_id > 232) return "domain_id must be in 0..232";

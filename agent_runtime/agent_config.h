@@ -33,6 +33,9 @@ struct AgentConfig {
   std::string calibration;             // camera calibration YAML (needed with camera); --calibration wins
   int opencv_threads = 0;              // OpenCV worker threads (image pyramids); 0: OpenCV's default (all cores)
 
+  /// The VO options the agent runs with: the `vo:` section with N and B applied.
+  VoOptions EffectiveVo() const;
+
   /// Empty when valid, otherwise the first problem found.
   std::string Validate() const;
 };

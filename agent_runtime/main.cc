@@ -101,10 +101,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   run.agent_id = config.agent_id;
-  run.vo = config.vo;
+  run.vo = config.EffectiveVo();
   run.vocabulary = config.vocabulary;
-  run.vo.bound.max_keyframes = config.max_keyframes;
-  run.vo.bound.max_unacked_buffer = config.buffer_keyframes;
   // A flight has no end: keep only what trajectories need when they are asked for.
   run.vo.record_frame_trajectory = !run.trajectory_out.empty() || !run.keyframes_out.empty();
   std::signal(SIGINT, OnSignal);

@@ -14,10 +14,10 @@
 #include <mutex>
 #include <thread>
 
-#include "server_runtime/map_view_server.h"
-#include "slam_core/io/dataset.h"
 #include "agent_runtime/agent_config.h"
 #include "runtime_common/install_paths.h"
+#include "server_runtime/map_view_server.h"
+#include "slam_core/io/dataset.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
@@ -182,9 +182,7 @@ int main(int argc, char** argv) {
     ccm::agent::AgentConfig config;
     std::string config_error;
     if (!ccm::agent::LoadAgentConfig(a.agent_config, &config, &config_error)) return Fail(config_error);
-    a.replay.vo = config.vo;
-    a.replay.vo.bound.max_keyframes = config.max_keyframes;
-    a.replay.vo.bound.max_unacked_buffer = config.buffer_keyframes;
+    a.replay.vo = config.EffectiveVo();
     if (delay_opt->count() == 0) a.replay.new_keyframe_delay_s = config.new_keyframe_delay_s;
     a.replay.map_sharing = config.map_sharing && !a.no_sharing;
   }
