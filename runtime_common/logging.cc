@@ -22,6 +22,16 @@ class JournalPriorityFlag : public spdlog::custom_flag_formatter {
   std::unique_ptr<custom_flag_formatter> clone() const override { return std::make_unique<JournalPriorityFlag>(); }
 };
 
+// Fast DDS 2.9 turns a writer's legacy <throughputController> (the only bandwidth limit its
+// XML parser knows) into a flow controller named after the participant's GUID. The second
+// writer of a participant that sets one (keyframes and map points share the new-data
+// profile) finds that name taken, logs this as an error and then uses the existing
+// controller: one budget per participant, as qos_profiles/*.xml intend. Not an error for us.
+bool IsSharedThroughputControllerNotice(const std::string& message) {
+  return message.rfind("Error registering FlowController ", 0) == 0 &&
+         message.find("|0.0.1.c1. Already registered") != std::string::npos;
+}
+
 // Fast DDS' own messages (discovery problems, XML errors) through spdlog: same format, one
 // line each, and no colour codes, which Fast DDS' console consumer writes even to files and
 // the journal. Called on Fast DDS' logging thread; spdlog's default logger is thread-safe.
@@ -29,9 +39,10 @@ class FastDdsToSpdlog : public eprosima::fastdds::dds::LogConsumer {
  public:
   void Consume(const eprosima::fastdds::dds::Log::Entry& entry) override {
     using Kind = eprosima::fastdds::dds::Log::Kind;
-    const auto level = entry.kind == Kind::Error     ? spdlog::level::err
-                       : entry.kind == Kind::Warning ? spdlog::level::warn
-                                                     : spdlog::level::debug;
+    auto level = entry.kind == Kind::Error     ? spdlog::level::err
+                 : entry.kind == Kind::Warning ? spdlog::level::warn
+                                               : spdlog::level::debug;
+    if (IsSharedThroughputControllerNotice(entry.message)) level = spdlog::level::debug;
     spdlog::log(level, "Fast DDS [{}] {}", entry.context.category ? entry.context.category : "", entry.message);
   }
 };

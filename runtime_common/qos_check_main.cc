@@ -3,6 +3,7 @@
 // 2.9 parser does not know is caught before deployment (the parser silently drops the
 // whole file otherwise). Exit code 0 only if every profile produced an entity.
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/log/Log.hpp>
 
 #include <CLI/CLI.hpp>
 
@@ -13,6 +14,7 @@
 
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
+#include "runtime_common/logging.h"
 
 namespace fdds = eprosima::fastdds::dds;
 
@@ -25,6 +27,13 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   std::string error;
+  // Fast DDS' messages through our log consumer (plain lines, the same filtering as the
+  // runtimes); Report() flushes them first so they never split a result line.
+  if (!ccm::rt::SetupLogging("info", &error)) return 1;
+  auto report = [](const std::string& line) {
+    eprosima::fastdds::dds::Log::Flush();
+    std::cout << line << std::endl;
+  };
   if (!ccm::rt::LoadQosFile(file, &error)) {
     std::cerr << "error: " << error << "\n";
     return 1;
@@ -63,7 +72,7 @@ int main(int argc, char** argv) {
       std::cerr << "FAIL participant " << profile << ": " << error << "\n";
       return 1;
     }
-    std::cout << "ok   participant  " << profile << "\n";
+    report("ok   participant  " + profile);
     if (!session) session = std::move(created);
   }
   fdds::TypeSupport type(new ccm::msg::KeyframeUpdatePubSubType());
@@ -86,9 +95,9 @@ int main(int argc, char** argv) {
         if (ok) session->subscriber()->delete_datareader(r);
       }
     }
-    std::cout << (ok ? "ok   " : "FAIL ") << kind << "  " << name << "\n";
+    report((ok ? "ok   " : "FAIL ") + kind + "  " + name);
     if (!ok) ++failures;
   }
-  std::cout << checked - failures << " of " << checked << " profiles usable in " << file << "\n";
+  report(std::to_string(checked - failures) + " of " + std::to_string(checked) + " profiles usable in " + file);
   return failures == 0 ? 0 : 1;
 }

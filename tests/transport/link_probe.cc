@@ -84,7 +84,7 @@ nlohmann::json Subscribe(DdsSession& session, const ProbeOptions& o, const char*
   std::string error;
   auto reader = ccm::rt::TypedReader<PubSubT>::Create(session, topic, profile, {512, policy}, &error);
   if (!reader) throw std::runtime_error(error);
-  std::set<long long> seen;
+  std::set<long long> seen;  // ordered: *begin() is the first index that arrived
   int duplicates = 0, mismatches = 0, out_of_range = 0;
   const auto deadline = Clock::now() + std::chrono::duration<double>(o.timeout_s);
   auto last_data = Clock::now();
@@ -106,6 +106,7 @@ nlohmann::json Subscribe(DdsSession& session, const ProbeOptions& o, const char*
   for (long long i = 0; i < o.count; ++i) if (!seen.count(i)) missing.push_back(i);
   return {{"role", "sub"}, {"expected", o.count}, {"received_unique", seen.size()}, {"duplicates", duplicates},
           {"mismatches", mismatches}, {"out_of_range", out_of_range}, {"missing_count", missing.size()},
+          {"first_index", seen.empty() ? -1 : *seen.begin()},
           {"reader_samples_lost", reader->counters().samples_lost.load()}};
 }
 

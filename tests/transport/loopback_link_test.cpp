@@ -71,9 +71,17 @@ TEST(LoopbackLink, BestEffortUpdatesArrivePartiallyAndLossIsCounted) {
   EXPECT_EQ(run.sub["duplicates"], 0);
   EXPECT_EQ(run.sub["mismatches"], 0);
   EXPECT_EQ(received + missing, 400);
+  // The publisher starts when its writer has matched the reader; the reader may match the
+  // writer later (its discovery datagrams are dropped too) and BEST_EFFORT data before that
+  // is gone. So the wire's loss is measured from the first update that arrived on; matching
+  // must still happen early in the 8 s stream (under CI load it took up to ~3.6 s).
+  const int first = run.sub["first_index"];
+  ASSERT_GE(first, 0) << run.sub_log;
+  EXPECT_LT(first, 300) << run.sub_log;
+  const double window = 400 - first;
   // 20% datagram loss on one hop: roughly 80% arrive (generous bounds).
-  EXPECT_GT(received, 400 * 0.6);
-  EXPECT_LT(received, 400 * 0.95);
+  EXPECT_GT(received, window * 0.6) << run.sub_log;
+  EXPECT_LT(received, window * 0.95) << run.sub_log;
   // The reader itself noticed the gaps (Fast DDS sample-lost status).
   EXPECT_GT(run.sub["reader_samples_lost"].get<int>(), 0) << run.sub_log;
 }
