@@ -159,6 +159,20 @@ std::optional<PlaceMatcher::Pending> PlaceMatcher::Verify(const View& q, const V
     if (AngleDeg(Eigen::Quaterniond::Identity(), p.map_transform.rotation()) > options_.loop_max_correction_angle_deg) {
       return std::nullopt;
     }
+    // Nor does it drift by a large share of the path flown since it saw the place: a
+    // correction that big is an aliased view, e.g. the identical crate one row further,
+    // which the neighbours confirm because the whole row repeats. Scale-free (both in map
+    // units); a correction within the consistency tolerance of the scene depth always
+    // passes (short paths). Loops with another agent's keyframe have no such path.
+    if (q.id.agent() == c.id.agent()) {
+      const double moved = (corrected_q.translation() - q.world_from_cam.translation()).norm();
+      const double allowed = std::max(options_.loop_max_correction_path_ratio * PathBetween(c.id, q.id),
+                                      options_.consistency_max_position_ratio * q.depth);
+      if (moved > allowed) {
+        Bump(&PlaceMatcherStats::implausible_loops);
+        return std::nullopt;
+      }
+    }
   }
   return p;
 }
@@ -209,6 +223,22 @@ std::optional<PlaceDetection> PlaceMatcher::ConfirmWithNeighbours(const View& q,
     }
   }
   return std::nullopt;
+}
+
+double PlaceMatcher::PathBetween(KeyframeId from, KeyframeId to) const {
+  const auto smap = stack_->MapHolding(to);
+  if (!smap) return 0.0;
+  const uint64_t lo = std::min(from.counter(), to.counter()), hi = std::max(from.counter(), to.counter());
+  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+  double path = 0.0;
+  std::optional<Eigen::Vector3d> last;
+  for (const auto& kf : smap->map().keyframes()) {  // sorted by id: one agent's by counter
+    if (kf->id().agent() != to.agent() || kf->id().counter() < lo || kf->id().counter() > hi) continue;
+    const Eigen::Vector3d centre = kf->world_from_cam().translation();
+    if (last) path += (centre - *last).norm();
+    last = centre;
+  }
+  return path;
 }
 
 bool PlaceMatcher::Agree(const Pending& a, const Pending& b) const {

@@ -38,6 +38,7 @@ struct PlaceMatcherStats {
   int64_t loop_candidates = 0, match_candidates = 0;
   int64_t verified = 0;       ///< candidates that passed geometric verification
   int64_t inconsistent = 0;   ///< verified, but the next detection disagreed or never came
+  int64_t implausible_loops = 0;  ///< verified loops whose correction exceeds the drift bound
   int64_t accepted_loops = 0, accepted_fusions = 0;
   double last_query_ms = 0.0;
   double total_query_ms = 0.0;  ///< database query + verification, summed over queries
@@ -91,6 +92,9 @@ class PlaceMatcher {
   std::optional<Pending> Verify(const View& query, const View& candidate, PlaceDetection::Kind kind);
   std::optional<PlaceDetection> ConfirmWithNeighbours(const View& q, const View& c, const Pending& first);
   bool Agree(const Pending& a, const Pending& b) const;
+  /// Path length (map units) through the keyframes of `to`'s agent still in its map, from
+  /// counter `from` to `to` (same agent).
+  double PathBetween(KeyframeId from, KeyframeId to) const;
   void Bump(int64_t PlaceMatcherStats::*field, int64_t n = 1) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     stats_.*field += n;

@@ -39,6 +39,7 @@ std::string PlaceMatchingOptions::Validate() const {
   if (!(consistency_max_scale_diff > 0.0)) return "place.consistency_max_scale_diff must be > 0";
   if (!(consistency_max_position_ratio > 0.0)) return "place.consistency_max_position_ratio must be > 0";
   if (!(loop_max_correction_angle_deg > 0.0)) return "place.loop_max_correction_angle_deg must be > 0";
+  if (!(loop_max_correction_path_ratio > 0.0)) return "place.loop_max_correction_path_ratio must be > 0";
   if (min_keyframes_between_loops < 0) return "place.min_keyframes_between_loops must be >= 0";
   return "";
 }
