@@ -60,7 +60,10 @@ TrackingResult Tracker::Track(VoFrame frame) {
     relocalizations_ += state_ == TrackingState::kLost;
     state_ = TrackingState::kTracking;
     lost_frames_ = 0;
-    if (last_frame_) velocity_ = frame.cam_from_world() * last_frame_->world_from_cam;
+    if (last_frame_) {
+      velocity_ = frame.cam_from_world() * last_frame_->world_from_cam;
+      velocity_dt_ns_ = frame.stamp_ns - last_frame_->stamp_ns;
+    }
     result.world_from_cam = frame.world_from_cam;
     result.inliers = inliers;
     if (const KeyframeReason why = NeedNewKeyframe(frame, inliers); why != KeyframeReason::kNone) {
@@ -134,8 +137,20 @@ int Tracker::OptimizeFramePose(VoFrame* f) {
   return s.num_inliers;
 }
 
+SE3 Tracker::PredictedMotion(int64_t stamp_ns) const {
+  // Constant velocity in time, not per frame: after dropped frames (a camera or driver
+  // hiccup) the camera moved for the whole gap. The twist is scaled by the ratio of the
+  // intervals, capped: beyond a few intervals the prediction is a guess either way.
+  const int64_t dt = stamp_ns - last_frame_->stamp_ns;
+  if (velocity_dt_ns_ <= 0 || dt <= 0) return *velocity_;
+  const double ratio = std::min(static_cast<double>(dt) / static_cast<double>(velocity_dt_ns_),
+                                shared_->options.max_motion_extrapolation);
+  if (std::abs(ratio - 1.0) < 0.25) return *velocity_;  // jitter of a regular stream
+  return SE3::Exp(ratio * velocity_->Log());
+}
+
 bool Tracker::TrackWithMotionModel(VoFrame* f) {
-  f->world_from_cam = (*velocity_ * last_frame_->cam_from_world()).inverse();
+  f->world_from_cam = (PredictedMotion(f->stamp_ns) * last_frame_->cam_from_world()).inverse();
   std::vector<std::shared_ptr<MapPoint>> points;
   for (size_t i = 0; i < last_frame_->size(); ++i) {
     if (last_frame_->map_points[i] && !last_frame_->map_points[i]->bad()) points.push_back(last_frame_->map_points[i]);

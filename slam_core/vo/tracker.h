@@ -54,6 +54,8 @@ class Tracker {
   const KeyframeReasonCounts& keyframe_reasons() const { return keyframe_reasons_; }
 
  private:
+  /// The motion from the last frame to a frame stamped `stamp_ns` (needs velocity_).
+  SE3 PredictedMotion(int64_t stamp_ns) const;
   bool TrackWithMotionModel(VoFrame* f);
   bool TrackReferenceKeyframe(VoFrame* f);
   bool Relocalize(VoFrame* f);
@@ -84,6 +86,7 @@ class Tracker {
   std::optional<VoFrame> last_frame_;
   int64_t relocalizations_ = 0;
   std::optional<SE3> velocity_;  ///< cam_from_world(k) * world_from_cam(k-1)
+  int64_t velocity_dt_ns_ = 0;   ///< stamp(k) - stamp(k-1) of that motion
   std::shared_ptr<KeyFrame> reference_kf_;
   int reference_tracked_ = 0;      ///< points the reference keyframe tracked when created
   double reference_coverage_ = 0;  ///< its image coverage (ImageCoverage) when created

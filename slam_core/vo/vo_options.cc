@@ -19,6 +19,7 @@ std::string VoOptions::Validate() const {
   if (init_window_px <= 0) return "init_window_px must be > 0";
   if (init_max_frames < 1) return "init_max_frames must be >= 1";
   if (projection_radius_px <= 0 || local_map_radius_px <= 0) return "search radii must be > 0";
+  if (!(max_motion_extrapolation >= 1.0)) return "max_motion_extrapolation must be >= 1";
   if (min_inliers_frame < 3) return "min_inliers_frame must be >= 3";
   if (min_inliers_local_map < min_inliers_frame) return "min_inliers_local_map must be >= min_inliers_frame";
   if (auto e = keyframe.Validate(); !e.empty()) return e;

@@ -41,6 +41,9 @@ struct VoOptions {
   double projection_radius_px = 15.0;  ///< motion-model search radius at level 0
   double local_map_radius_px = 3.0;    ///< local-map search radius at level 0 (x2.5-4 by view angle)
   int min_matches_motion_model = 20;   ///< below: retry with a doubled radius
+  /// After a gap in the stream (dropped frames) the constant-velocity prediction covers the
+  /// gap, up to this many of the last frame intervals.
+  double max_motion_extrapolation = 10.0;
   int min_inliers_frame = 10;          ///< pose-only optimization inliers to accept a frame pose
   int min_inliers_local_map = 30;      ///< inliers after local-map tracking to count as tracked
   int min_inliers_after_reloc = 50;
