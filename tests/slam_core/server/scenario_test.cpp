@@ -107,15 +107,21 @@ TEST(ServerScenario, Disjoint2NeverFuses) {
   EXPECT_GT(r.stats.place.match_candidates, 0) << "map matching ran (and found nothing to fuse)";
 }
 
-// Sim(3) aligning one agent's keyframes in `map` to the ground truth.
-std::optional<Sim3> AgentAlignment(const ServerBackend& backend, AgentId agent, MapId map, const Trajectory& gt) {
-  std::vector<Eigen::Vector3d> est, truth;
+// One agent's keyframe positions in `map` and the ground truth at the same stamps.
+void AgentPositions(const ServerBackend& backend, AgentId agent, MapId map, const Trajectory& gt,
+                    std::vector<Eigen::Vector3d>* est, std::vector<Eigen::Vector3d>* truth) {
   for (const ServerKeyframePose& p : backend.AgentTrajectory(agent)) {
     const auto g = testing::GroundTruthAt(gt, p.stamp_ns);
     if (p.map != map || !g) continue;
-    est.push_back(p.world_from_cam.translation());
-    truth.push_back(g->translation());
+    est->push_back(p.world_from_cam.translation());
+    truth->push_back(g->translation());
   }
+}
+
+// Sim(3) aligning one agent's keyframes in `map` to the ground truth.
+std::optional<Sim3> AgentAlignment(const ServerBackend& backend, AgentId agent, MapId map, const Trajectory& gt) {
+  std::vector<Eigen::Vector3d> est, truth;
+  AgentPositions(backend, agent, map, gt, &est, &truth);
   std::string error;
   if (est.size() < 5) return std::nullopt;
   return UmeyamaAlignment(est, truth, true, &error);
@@ -127,17 +133,10 @@ std::optional<double> AgentAtePercent(const ServerBackend& backend, AgentId agen
   const auto poses = backend.AgentTrajectory(agent);
   if (poses.empty()) return std::nullopt;
   const MapId map = poses.back().map;
-  std::vector<Eigen::Vector3d> est, truth;
-  for (const ServerKeyframePose& p : poses) {
-    const auto g = testing::GroundTruthAt(gt, p.stamp_ns);
-    if (p.map != map || !g) continue;
-    est.push_back(p.world_from_cam.translation());
-    truth.push_back(g->translation());
-  }
-  std::string error;
-  if (est.size() < 5) return std::nullopt;
-  const auto s = UmeyamaAlignment(est, truth, true, &error);
+  const auto s = AgentAlignment(backend, agent, map, gt);
   if (!s) return std::nullopt;
+  std::vector<Eigen::Vector3d> est, truth;
+  AgentPositions(backend, agent, map, gt, &est, &truth);
   double sq = 0.0, path = 0.0;
   for (size_t i = 0; i < est.size(); ++i) {
     sq += ((*s) * est[i] - truth[i]).squaredNorm();

@@ -66,13 +66,19 @@ KidnapOutcome FlyAndKidnap(const std::shared_ptr<const sim::Simulation>& sim, in
   return out;
 }
 
-TEST(VoKidnap, RelocalizesWithinFiveFramesAfterAJumpBackInsideTheLocalMap) {
+void LoadHall3AndVocabulary(std::shared_ptr<const sim::Simulation>* sim, std::shared_ptr<const Vocabulary>* vocab) {
   std::string error;
-  const auto sim = testing::LoadSimulation("hall3", &error);
-  ASSERT_NE(sim, nullptr) << error;
+  *sim = testing::LoadSimulation("hall3", &error);
+  ASSERT_NE(*sim, nullptr) << error;
   auto vocabulary = LoadVocabularyFile(CCM_DEFAULT_VOCABULARY, &error);
   ASSERT_TRUE(vocabulary) << error;
-  const auto vocab = std::make_shared<const Vocabulary>(std::move(*vocabulary));
+  *vocab = std::make_shared<const Vocabulary>(std::move(*vocabulary));
+}
+
+TEST(VoKidnap, RelocalizesWithinFiveFramesAfterAJumpBackInsideTheLocalMap) {
+  std::shared_ptr<const sim::Simulation> sim;
+  std::shared_ptr<const Vocabulary> vocab;
+  ASSERT_NO_FATAL_FAILURE(LoadHall3AndVocabulary(&sim, &vocab));
   // 15 s of flight, then back to where the agent was 12 s (240 frames) earlier.
   const KidnapOutcome o = FlyAndKidnap(sim, 0, 300, 60, vocab);
   ASSERT_TRUE(o.error.empty()) << o.error;
@@ -92,12 +98,9 @@ TEST(VoFrameGap, TracksThroughDroppedFramesWithoutRelocalizing) {
   // predicts over the gap's duration, so the first frame after it is tracked at once, at the
   // right pose. (Predicting one frame interval, as ORB-SLAM does, tracked the 8-frame gap at
   // a pose 0.28 m off and lost the 16-frame one until relocalization.)
-  std::string error;
-  const auto sim = testing::LoadSimulation("hall3", &error);
-  ASSERT_NE(sim, nullptr) << error;
-  auto vocabulary = LoadVocabularyFile(CCM_DEFAULT_VOCABULARY, &error);
-  ASSERT_TRUE(vocabulary) << error;
-  const auto vocab = std::make_shared<const Vocabulary>(std::move(*vocabulary));
+  std::shared_ptr<const sim::Simulation> sim;
+  std::shared_ptr<const Vocabulary> vocab;
+  ASSERT_NO_FATAL_FAILURE(LoadHall3AndVocabulary(&sim, &vocab));
   for (const int gap : {8, 16}) {
     const KidnapOutcome o = FlyAndKidnap(sim, 0, 300, 300 + gap, vocab);
     ASSERT_TRUE(o.error.empty()) << o.error;
