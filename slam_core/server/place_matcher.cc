@@ -164,11 +164,10 @@ std::optional<PlaceMatcher::Pending> PlaceMatcher::Verify(const View& q, const V
     // which the neighbours confirm because the whole row repeats. Scale-free (both in map
     // units); a correction within the consistency tolerance of the scene depth always
     // passes (short paths). Loops with another agent's keyframe have no such path.
-    if (q.id.agent() == c.id.agent()) {
-      const double moved = (corrected_q.translation() - q.world_from_cam.translation()).norm();
-      const double allowed = std::max(options_.loop_max_correction_path_ratio * PathBetween(c.id, q.id),
-                                      options_.consistency_max_position_ratio * q.depth);
-      if (moved > allowed) {
+    // The depth test first: most corrections pass it and need no walk along the path.
+    const double moved = (corrected_q.translation() - q.world_from_cam.translation()).norm();
+    if (q.id.agent() == c.id.agent() && moved > options_.consistency_max_position_ratio * q.depth) {
+      if (moved > options_.loop_max_correction_path_ratio * PathBetween(c.id, q.id)) {
         Bump(&PlaceMatcherStats::implausible_loops);
         return std::nullopt;
       }

@@ -7,6 +7,7 @@
 #include <map>
 
 #include "slam_core/eval/alignment.h"
+#include "slam_core/eval/metrics.h"
 #include "tests/slam_core/server/server_test_util.h"
 #include "tools/replay/batch_recording.h"
 #include "tools/replay/replay_report.h"
@@ -132,17 +133,19 @@ std::optional<Sim3> AgentAlignment(const ServerBackend& backend, AgentId agent, 
 std::optional<double> AgentAtePercent(const ServerBackend& backend, AgentId agent, const Trajectory& gt) {
   const auto poses = backend.AgentTrajectory(agent);
   if (poses.empty()) return std::nullopt;
-  const MapId map = poses.back().map;
-  const auto s = AgentAlignment(backend, agent, map, gt);
-  if (!s) return std::nullopt;
   std::vector<Eigen::Vector3d> est, truth;
-  AgentPositions(backend, agent, map, gt, &est, &truth);
-  double sq = 0.0, path = 0.0;
+  AgentPositions(backend, agent, poses.back().map, gt, &est, &truth);
+  std::string error;
+  if (est.size() < 5) return std::nullopt;
+  const auto s = UmeyamaAlignment(est, truth, true, &error);
+  if (!s) return std::nullopt;
+  std::vector<double> errors;
+  double path = 0.0;
   for (size_t i = 0; i < est.size(); ++i) {
-    sq += ((*s) * est[i] - truth[i]).squaredNorm();
+    errors.push_back(((*s) * est[i] - truth[i]).norm());
     if (i > 0) path += (truth[i] - truth[i - 1]).norm();
   }
-  return path > 0.0 ? 100.0 * std::sqrt(sq / est.size()) / path : std::optional<double>{};
+  return path > 0.0 ? 100.0 * ComputeStats(errors).rmse / path : std::optional<double>{};
 }
 
 TEST(ServerScenario, RepeatedFusionsAgreeWithGroundTruth) {
