@@ -123,6 +123,10 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
     // Points moved with the neighbourhood are consistent with the keyframe that moved them.
     for (const auto& [mp, kf] : moved_by) result.point_reference.emplace(mp, kf);
     ApplyCorrection(&map, result);
+    smap->RescaleAnchors([&result](KeyframeId root) {
+      const auto o = result.optimized.find(root), i = result.initial.find(root);
+      return o != result.optimized.end() && i != result.initial.end() ? o->second.scale() / i->second.scale() : 1.0;
+    });
   }
   const SE3 query_after = q->world_from_cam();
   r.correction_m = (query_after.translation() - query_before.translation()).norm();

@@ -122,6 +122,7 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
     dst.AddMapPoint(mp);
     ++r.points_moved;
   }
+  absorbed->RescaleAnchors([&S](KeyframeId) { return S.scale(); });
   kept->AbsorbTables(absorbed);
 
   // Refine the transform on the whole overlap before anything is merged.
@@ -138,6 +139,7 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
         kf->SetWorldFromCam(delta.TransformPose(kf->world_from_cam()));
       }
       for (const auto& mp : absorbed->map().map_points()) TransformPoint(mp.get(), delta);
+      kept->RescaleAnchors([&](KeyframeId root) { return absorbed_ids.count(root) ? delta.scale() : 1.0; });
       S = delta * S;
       r.kept_from_absorbed = S;
       r.refined = true;

@@ -78,6 +78,29 @@ MapPointId ServerMap::Resolve(MapPointId id) const {
   return id;
 }
 
+void ServerMap::RescaleAnchors(const std::function<double(KeyframeId root)>& scale_of) {
+  // Roots and scales outside the table lock: scale_of may look at the map.
+  const auto all = anchors();
+  std::unordered_map<KeyframeId, double> scale;
+  for (const auto& [id, anchor] : all) {
+    KeyframeId root = anchor.base;
+    for (int hop = 0; hop < 64; ++hop) {
+      const auto it = all.find(root);
+      if (it == all.end()) break;
+      root = it->second.base;
+    }
+    const double s = scale_of(root);
+    if (s != 1.0) scale[id] = s;
+  }
+  std::lock_guard<std::mutex> lock(tables_mutex_);
+  for (const auto& [id, s] : scale) {
+    const auto it = anchors_.find(id);
+    if (it == anchors_.end()) continue;
+    SE3& T = it->second.base_from_cam;
+    T = SE3(T.rotation(), s * T.translation());
+  }
+}
+
 void ServerMap::AbsorbTables(ServerMap* other) {
   std::scoped_lock lock(tables_mutex_, other->tables_mutex_);
   info_.merge(other->info_);

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -83,6 +84,12 @@ class ServerMap {
   std::optional<SE3> PoseOf(KeyframeId id) const;
   /// True if the keyframe is in the map or anchored to it.
   bool Knows(KeyframeId id) const;
+  /// A Sim(3) correction (fusion, loop closure) changed the map's scale around some
+  /// keyframes: an anchor's offset from its base is in map units and must follow, or it
+  /// lands off by (scale - 1) x its offset (a fusion at scale 1.33 put anchors 10-20 cm
+  /// off). `scale_of(root)`: the scale change at the keyframe in the map that the anchor's
+  /// chain ends in (1: unchanged).
+  void RescaleAnchors(const std::function<double(KeyframeId root)>& scale_of);
 
   /// A point merged into another: links that still name the old id resolve to the new one.
   void RecordReplacement(MapPointId old_id, MapPointId keep);
