@@ -14,9 +14,16 @@ using Clock = std::chrono::steady_clock;
 
 // Bytes a message takes on the wire (close enough for the rate limit).
 size_t WireBytes(const msg::KeyframeFull& m) {
-  return 160 + m.keypoints().size() * 20 + m.descriptors().size() * 32 + m.mp_ids().size() * 10;
+  return 160 + m.keypoints().size() * 6 + m.descriptors().size() * 32 + m.mp_ids().size() * 10;
 }
 size_t WireBytes(const msg::MapPointFull& m) { return 120 + m.obs_kf_ids().size() * 10; }
+
+ChangePackerOptions PackerOptions(const AgentConfig& config) {
+  ChangePackerOptions o;
+  o.new_keyframe_delay_s = config.new_keyframe_delay_s;
+  o.anchor_duplicates = config.anchor_duplicates;
+  return o;
+}
 
 int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -63,7 +70,7 @@ AgentComm::AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session
       session_(std::move(session)),
       vo_(vo),
       acks_(acks),
-      packer_(static_cast<AgentId>(config_.agent_id), 0.01, config_.new_keyframe_delay_s) {}
+      packer_(static_cast<AgentId>(config_.agent_id), PackerOptions(config_)) {}
 
 AgentComm::~AgentComm() { Stop(); }
 
@@ -160,6 +167,7 @@ void AgentComm::PackChanges() {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.pack_ms_max = std::max(stats_.pack_ms_max, ms);
   stats_.deferred = packer_.deferred();
+  stats_.kfs_sent_as_anchors = packer_.anchors_sent();
   stats_.pack_ms_total += ms;
   ++stats_.packs;
 }

@@ -33,6 +33,7 @@ namespace ccm::agent {
 
 struct AgentCommStats {
   std::uint64_t kfs_sent = 0;          ///< first transmissions
+  std::uint64_t kfs_sent_as_anchors = 0;  ///< of those, near-duplicates sent as pose anchors only
   std::uint64_t kfs_resent = 0;
   std::uint64_t kfs_acked = 0;
   std::uint64_t kfs_unacked = 0;

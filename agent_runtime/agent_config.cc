@@ -20,6 +20,7 @@ std::string AgentConfig::Validate() const {
   if (!(resend_holdoff_s >= 0.0)) return "resend_holdoff_s must be >= 0";
   if (!(ack_timeout_s > 0.0)) return "ack_timeout_s must be > 0";
   if (!(new_keyframe_delay_s >= 0.0 && new_keyframe_delay_s <= 30.0)) return "new_keyframe_delay_s must be in [0, 30]";
+  if (const std::string e = anchor_duplicates.Validate(); !e.empty()) return "anchor_duplicate_" + e;
   if (max_keyframes < 2) return "max_keyframes (N) must be >= 2";
   if (buffer_keyframes < 0) return "buffer_keyframes (B) must be >= 0";
   if (participant_profile.empty()) return "participant_profile must not be empty";
@@ -80,6 +81,8 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("resend_holdoff_s", &config->resend_holdoff_s);
   r.Get("ack_timeout_s", &config->ack_timeout_s);
   r.Get("new_keyframe_delay_s", &config->new_keyframe_delay_s);
+  r.Get("anchor_duplicate_distance_ratio", &config->anchor_duplicates.distance_ratio);
+  r.Get("anchor_duplicate_max_angle_deg", &config->anchor_duplicates.max_angle_deg);
   r.Get("max_keyframes", &config->max_keyframes);
   r.Get("buffer_keyframes", &config->buffer_keyframes);
   r.Get("vocabulary", &config->vocabulary);

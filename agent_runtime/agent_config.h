@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "slam_core/map/near_duplicate.h"
 #include "slam_core/vo/vo_options.h"
 
 namespace ccm::agent {
@@ -19,6 +20,10 @@ struct AgentConfig {
   int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)
   bool map_sharing = true;             // integrate the keyframes the server sends back
   double new_keyframe_delay_s = 1.5;   // a new KF leaves once this old (data time): KFs culled sooner never cost uplink
+  // A KF within distance_ratio x scene depth and max_angle_deg of one the server has in full,
+  // whose points keep >= 2 such observers, leaves as a pose anchor only (the server's
+  // near-duplicate rule, applied before sending). distance_ratio 0: every KF in full.
+  NearDuplicateRule anchor_duplicates;
   double status_rate_hz = 1.0;         // AgentStatus heartbeat rate
   double resend_holdoff_s = 3.0;       // KF i acked, i-1 not: resend i-1 only if sent this long ago (>= the server's ack_repeats / publish_rate_hz: its ack may still come in a repeat)
   double ack_timeout_s = 5.0;          // resend a KF unacknowledged for this long

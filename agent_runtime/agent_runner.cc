@@ -292,6 +292,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   if (comm) {
     const AgentCommStats c = comm->Stats();
     summary["link"] = {{"kfs_sent", c.kfs_sent},
+                       {"kfs_sent_as_anchors", c.kfs_sent_as_anchors},
                        {"kfs_resent", c.kfs_resent},
                        {"kfs_acked", c.kfs_acked},
                        {"kfs_unacked", c.kfs_unacked},

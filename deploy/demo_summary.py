@@ -47,6 +47,7 @@ def main():
             "tracked": a.get("tracked"),
             "keyframes_created": a.get("keyframes_created"),
             "keyframes_sent": link.get("kfs_sent"),
+            "keyframes_sent_as_anchors": link.get("kfs_sent_as_anchors"),
             "keyframes_resent": link.get("kfs_resent"),
             "keyframes_acked": link.get("kfs_acked"),
             "keyframes_unacked": link.get("kfs_unacked"),

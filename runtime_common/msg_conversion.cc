@@ -88,6 +88,7 @@ msg::KeyframeFull ToMsg(const KeyframeData& kf, KeyframeId agent_reference_kf) {
   m.parent_from_this(PoseToMsg(kf.parent_from_cam));
   m.segment_from_this(PoseToMsg(kf.segment_from_cam));
   m.ref_kf_id(agent_reference_kf.packed());
+  m.anchor_only(kf.anchor_only);
   return m;
 }
 
@@ -108,6 +109,7 @@ std::optional<KeyframeData> FromMsg(const msg::KeyframeFull& m, CameraCache* cam
   if (auto e = AnyIdFromMsg(m.parent_id(), "parent", false, &kf.parent); !e.empty()) return reject(e);
   if (auto e = AnyIdFromMsg(m.ref_kf_id(), "reference keyframe", false, &reference); !e.empty()) return reject(e);
   if (auto e = KeyframeBodyFromMsg(m, cameras, &kf); !e.empty()) return reject(e);
+  kf.anchor_only = m.anchor_only();
   if (auto e = ValidateKeyframeData(kf, agent, kLimits); !e.empty()) return reject(e);
   if (agent_reference_kf != nullptr) *agent_reference_kf = reference;
   return kf;

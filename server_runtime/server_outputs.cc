@@ -20,6 +20,7 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                                   {"map_point_updates_received", l.map_point_updates},
                                   {"keyframes_registered", counters.keyframes_registered},
                                   {"keyframes_skipped_as_duplicates", counters.keyframes_duplicate},
+                                  {"keyframes_received_as_anchors", counters.keyframes_anchor_only},
                                   {"status_msgs", l.status_msgs},
                                   {"rejected", l.rejected},
                                   {"batches_submitted", l.batches_submitted},

@@ -52,6 +52,10 @@ std::string ValidateKeyframeData(const KeyframeData& kf, AgentId agent, const Ag
   if (kf.pyramid_levels < 1 || kf.pyramid_levels > 16) return "pyramid levels must be in 1..16";
   if (!(kf.pyramid_scale_factor > 1.0 && kf.pyramid_scale_factor <= 2.0)) return "pyramid scale factor must be in (1, 2]";
   if (auto e = CheckFeatures(kf, limits); !e.empty()) return "keyframe " + Str(kf.id.counter()) + ": " + e;
+  if (kf.anchor_only) {
+    if (kf.features->size() != 0 || !kf.point_links.empty()) return "anchor-only keyframe with features or point links";
+    if (!kf.parent.valid()) return "anchor-only keyframe without the keyframe it duplicates (parent)";
+  }
   const size_t n = kf.features->size();
   std::vector<bool> used(n, false);
   for (size_t i = 0; i < kf.point_links.size(); ++i) {

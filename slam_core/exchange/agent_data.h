@@ -43,6 +43,11 @@ struct KeyframeData {
   /// Pose in the segment's VO frame. Only a fallback: the server places a keyframe with
   /// this only if neither predecessor nor parent is known (e.g. both were lost).
   SE3 segment_from_cam;
+  /// A near-duplicate of `parent`, a keyframe the server has in full (NearDuplicateOf on the
+  /// agent): only its poses travel, no features and no point links (empty), and the server
+  /// keeps it as a pose anchor on `parent` (its trajectory), never in the map. It would
+  /// have dropped the features of such a keyframe anyway (Forster et al.).
+  bool anchor_only = false;
 };
 
 /// A map point as the agent sends it once, in full.

@@ -59,6 +59,12 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   report->acked_keyframes.push_back(data.id);
   if (smap->Knows(data.id)) return;  // a resend of something we have
   const AgentHandler handler = *stack_->Handler(agent_, data.segment);
+  if (data.anchor_only) {
+    RegisterAnchor(data, handler.scale, smap, report);
+    locked.lock.unlock();  // see below
+    ReleaseWaitingPoints(data.id, report);
+    return;
+  }
 
   RegisteredKeyframe reg{data.id, smap->id(), RegisteredKeyframe::Placement::kFirstOfMap, false};
   SE3 world_from_cam;
@@ -110,6 +116,39 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   // the first. (Seen in the demo once agents tracked shared points.)
   locked.lock.unlock();
   ReleaseWaitingPoints(data.id, report);
+}
+
+void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, ServerMap* smap,
+                                       RegistrationReport* report) {
+  // Placed relative to the keyframe it duplicates (the agent's VO relative pose between two
+  // keyframes a few centimetres apart is as good as it gets), else to its predecessor.
+  KeyframeId via = data.parent;
+  SE3 via_from_cam = data.parent_from_cam;
+  std::optional<SE3> world_from_via = smap->PoseOf(via);
+  if (!world_from_via && data.predecessor.valid()) {
+    via = data.predecessor;
+    via_from_cam = data.pred_from_cam;
+    world_from_via = smap->PoseOf(via);
+  }
+  if (!world_from_via) {
+    ++report->anchors_dropped;  // nothing it could hang on (both were lost): acked, not kept
+    return;
+  }
+  // Anchor it on a keyframe in the map, so chains of anchors stay short.
+  KeyframeId base = via;
+  for (int hop = 0; hop < 64 && !smap->map().keyframe(base); ++hop) {
+    const auto a = smap->Anchor(base);
+    if (!a) break;
+    base = a->base;
+  }
+  const auto base_kf = smap->map().keyframe(base);
+  if (!base_kf) {
+    ++report->anchors_dropped;
+    return;
+  }
+  const SE3 world_from_cam = *world_from_via * ScaledPose(via_from_cam, scale);
+  smap->AddAnchor(data.id, {base, base_kf->cam_from_world() * world_from_cam, data.stamp_ns, data.segment});
+  ++report->anchors_registered;
 }
 
 bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers) {

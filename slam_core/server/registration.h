@@ -43,6 +43,8 @@ struct RegistrationReport {
   int points_registered = 0;
   int points_waiting = 0;                     ///< still waiting for their reference keyframe
   int points_dropped = 0;                     ///< waiting list overflow or no observer left
+  int anchors_registered = 0;                 ///< anchor-only keyframes kept as anchors
+  int anchors_dropped = 0;                    ///< anchor-only keyframes with nothing to hang on
   int keyframe_updates_applied = 0;
   int point_updates_applied = 0;
   int updates_ignored = 0;                    ///< unknown ids, or data the server corrected since
@@ -60,6 +62,7 @@ class AgentRegistration {
 
  private:
   void RegisterKeyframe(const KeyframeData& kf, RegistrationReport* report);
+  void RegisterAnchor(const KeyframeData& kf, double scale, ServerMap* map, RegistrationReport* report);
   void RegisterPoint(const MapPointData& mp, RegistrationReport* report);
   void ReleaseWaitingPoints(KeyframeId kf, RegistrationReport* report);
   bool RefinePose(ServerMap* map, KeyFrame* kf, int* inliers);

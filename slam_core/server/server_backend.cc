@@ -182,6 +182,7 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     ++c.batches;
     c.keyframes_registered += static_cast<int64_t>(report.keyframes.size());
     c.keyframes_duplicate += skipped;
+    c.keyframes_anchor_only += report.anchors_registered + report.anchors_dropped;
     c.points_registered += report.points_registered;
     c.updates_applied += report.keyframe_updates_applied + report.point_updates_applied;
     c.updates_ignored += report.updates_ignored;

@@ -58,6 +58,7 @@ struct AgentCounters {
   int64_t batches = 0;
   int64_t keyframes_registered = 0;
   int64_t keyframes_duplicate = 0;   ///< skipped as near-duplicates (anchored)
+  int64_t keyframes_anchor_only = 0; ///< near-duplicates the agent sent as anchors only
   int64_t points_registered = 0;
   int64_t updates_applied = 0;
   int64_t updates_ignored = 0;

@@ -5,19 +5,11 @@
 #include <cmath>
 #include <set>
 
+#include "slam_core/map/near_duplicate.h"
 #include "slam_core/vo/map_bundle_adjustment.h"
 #include "slam_core/vo/point_fusion.h"
 
 namespace ccm {
-namespace {
-
-double AxisAngleDeg(const KeyFrame& a, const KeyFrame& b) {
-  const Eigen::Vector3d za = a.world_from_cam().rotation() * Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d zb = b.world_from_cam().rotation() * Eigen::Vector3d::UnitZ();
-  return std::acos(std::clamp(za.dot(zb), -1.0, 1.0)) * 180.0 / M_PI;
-}
-
-}  // namespace
 
 ServerMappingReport ServerMapper::Process(ServerMap* smap, const std::shared_ptr<KeyFrame>& kf) const {
   ServerMappingReport r;
@@ -112,26 +104,10 @@ bool ServerMapper::NeedsLocalBa(const KeyFrame& kf) const {
 }
 
 KeyframeId ServerMapper::NearDuplicateOf(const Map& map, const KeyFrame& kf) const {
-  const double depth = MedianSceneDepth(map, kf);
-  if (depth <= 0.0) return KeyframeId::Invalid();
-  KeyframeId dup;
-  for (const KeyframeId id : kf.BestCovisible(5)) {
-    const auto n = map.keyframe(id);
-    if (!n || n->bad()) continue;
-    if ((n->camera_center() - kf.camera_center()).norm() < options_.duplicate_distance_ratio * depth &&
-        AxisAngleDeg(*n, kf) < options_.duplicate_max_angle_deg) {
-      dup = id;
-      break;
-    }
-  }
-  if (!dup.valid()) return dup;
-  // Only if removing it orphans almost nothing: its points keep >= 2 other observers.
-  int total = 0, covered = 0;
-  for (const auto& mp : PointsOf(map, kf)) {
-    ++total;
-    covered += mp->num_observations() - 1 >= 2;
-  }
-  return total > 0 && covered >= 0.9 * total ? dup : KeyframeId::Invalid();
+  NearDuplicateRule rule;
+  rule.distance_ratio = options_.duplicate_distance_ratio;
+  rule.max_angle_deg = options_.duplicate_max_angle_deg;
+  return ccm::NearDuplicateOf(map, kf, rule);
 }
 
 }  // namespace ccm

@@ -6,35 +6,42 @@
 namespace ccm {
 namespace {
 
+bool Excluded(const KeyframeFilter& excluded, KeyframeId id) { return excluded && excluded(id); }
+
 // The newest keyframe of the same agent older than `id` still in the map.
-KeyframeId PredecessorOf(const Map& map, KeyframeId id) {
+KeyframeId PredecessorOf(const Map& map, KeyframeId id, const KeyframeFilter& excluded) {
   KeyframeId best;
   for (const auto& kf : map.keyframes()) {  // sorted by id
     if (!(kf->id() < id)) break;
-    if (kf->agent() == id.agent() && !kf->bad()) best = kf->id();
+    if (kf->agent() == id.agent() && !kf->bad() && !Excluded(excluded, kf->id())) best = kf->id();
   }
   return best;
 }
 
-KeyframeId ParentOf(const Map& map, const KeyFrame& kf) {
+KeyframeId ParentOf(const Map& map, const KeyFrame& kf, const KeyframeFilter& excluded) {
   KeyframeId parent = kf.parent();
-  if (!parent.valid() || !map.keyframe(parent)) {
-    const auto best = kf.BestCovisible(1);
-    parent = best.empty() ? KeyframeId::Invalid() : best.front();
+  if (!parent.valid() || !map.keyframe(parent) || Excluded(excluded, parent)) {
+    parent = KeyframeId::Invalid();
+    for (const KeyframeId id : kf.BestCovisible(3)) {
+      if (!Excluded(excluded, id)) return id;
+    }
   }
   return parent;
 }
 
-void FillRelative(const Map& map, const KeyFrame& kf, KeyframeId* pred, SE3* pred_from_cam, KeyframeId* parent,
-                  SE3* parent_from_cam) {
+// `excluded`: keyframes sent as anchors. Nothing is placed relative to an anchor: its pose
+// on the server is its VO pose when sent, never updated, and a chain of keyframes hung on
+// it would inherit that error (the repeated hall's ATE tripled before this).
+void FillRelative(const Map& map, const KeyFrame& kf, const KeyframeFilter& excluded, KeyframeId* pred,
+                  SE3* pred_from_cam, KeyframeId* parent, SE3* parent_from_cam) {
   const SE3 world_from_cam = kf.world_from_cam();
-  *pred = PredecessorOf(map, kf.id());
+  *pred = PredecessorOf(map, kf.id(), excluded);
   if (const auto p = pred->valid() ? map.keyframe(*pred) : nullptr) {
     *pred_from_cam = p->cam_from_world() * world_from_cam;
   } else {
     *pred = KeyframeId::Invalid();
   }
-  *parent = ParentOf(map, kf);
+  *parent = ParentOf(map, kf, excluded);
   if (const auto p = parent->valid() ? map.keyframe(*parent) : nullptr) {
     *parent_from_cam = p->cam_from_world() * world_from_cam;
   } else {
@@ -44,7 +51,7 @@ void FillRelative(const Map& map, const KeyFrame& kf, KeyframeId* pred, SE3* pre
 
 }  // namespace
 
-std::optional<KeyframeData> PackKeyframe(const Map& map, KeyframeId id) {
+std::optional<KeyframeData> PackKeyframe(const Map& map, KeyframeId id, const KeyframeFilter& excluded) {
   const auto kf = map.keyframe(id);
   if (!kf) return std::nullopt;
   KeyframeData d;
@@ -59,12 +66,13 @@ std::optional<KeyframeData> PackKeyframe(const Map& map, KeyframeId id) {
   for (size_t i = 0; i < mps.size(); ++i) {
     if (mps[i].valid()) d.point_links.emplace_back(static_cast<int>(i), mps[i]);
   }
-  FillRelative(map, *kf, &d.predecessor, &d.pred_from_cam, &d.parent, &d.parent_from_cam);
+  FillRelative(map, *kf, excluded, &d.predecessor, &d.pred_from_cam, &d.parent, &d.parent_from_cam);
   d.segment_from_cam = kf->world_from_cam();
   return d;
 }
 
-std::optional<MapPointData> PackMapPoint(const Map& map, MapPointId id) {
+std::optional<MapPointData> PackMapPoint(const Map& map, MapPointId id,
+                                         const KeyframeFilter& excluded) {
   const auto mp = map.map_point(id);
   if (!mp || mp->bad()) return std::nullopt;
   MapPointData d;
@@ -72,7 +80,7 @@ std::optional<MapPointData> PackMapPoint(const Map& map, MapPointId id) {
   d.segment = map.id();
   d.descriptor = mp->descriptor();
   for (const auto& [kf, idx] : mp->observations()) {
-    if (kf.agent() == id.agent() && map.keyframe(kf)) d.observations.emplace_back(kf, idx);
+    if (kf.agent() == id.agent() && map.keyframe(kf) && !(excluded && excluded(kf))) d.observations.emplace_back(kf, idx);
   }
   if (d.observations.empty()) return std::nullopt;
   KeyframeId ref = mp->reference_kf();
@@ -99,6 +107,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
     segment_ = map.id();
     sent_kfs_.clear();
     sent_points_.clear();
+    anchored_.clear();
     deferred_kfs_.clear();
     deferred_points_.clear();
   }
@@ -110,19 +119,21 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   deferred_kfs_.clear();
   // Data time of the newest own keyframe: the age of a new keyframe for the send delay.
   int64_t newest_ns = 0;
-  if (new_keyframe_delay_s_ > 0.0 && !flush) {
+  if (options_.new_keyframe_delay_s > 0.0 && !flush) {
     for (const auto& kf : map.keyframes()) {
       if (kf->agent() == agent_) newest_ns = std::max(newest_ns, kf->stamp_ns());
     }
   }
   const auto too_young = [&](const KeyFrame& kf) {
-    return newest_ns > 0 && static_cast<double>(newest_ns - kf.stamp_ns()) * 1e-9 < new_keyframe_delay_s_;
+    return newest_ns > 0 && static_cast<double>(newest_ns - kf.stamp_ns()) * 1e-9 < options_.new_keyframe_delay_s;
   };
   // A resent keyframe goes with its own points in full: whatever kept the server from
   // acknowledging the keyframe (a dropped batch, a restarted server) may have lost them too.
   std::set<MapPointId> points = changes.map_points, resend_points;
   points.insert(deferred_points_.begin(), deferred_points_.end());
   deferred_points_.clear();
+  const auto is_anchor = [this](KeyframeId kf) { return anchored_.count(kf) > 0; };
+  std::vector<KeyframeId> updated;  // packed after the new ones: they may become anchors
   for (const KeyframeId id : kfs) {
     if (id.agent() != agent_) continue;
     const bool full = resend_.count(id) || !sent_kfs_.count(id);
@@ -134,7 +145,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
           continue;
         }
       }
-      if (auto d = PackKeyframe(map, id)) {
+      if (auto d = PackNew(map, id, resend_.count(id) > 0)) {
         if (resend_.count(id)) {
           for (const auto& link : d->point_links) {
             if (link.second.agent() == agent_) resend_points.insert(link.second);
@@ -146,19 +157,22 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
       }
       continue;
     }
+    updated.push_back(id);
+  }
+  for (const KeyframeId id : updated) {
     const auto kf = map.keyframe(id);
-    if (!kf) continue;
+    if (!kf || anchored_.count(id)) continue;  // the server ignores updates of anchors
     KeyframePoseUpdate u;
     u.id = id;
     u.segment = map.id();
-    FillRelative(map, *kf, &u.predecessor, &u.pred_from_cam, &u.parent, &u.parent_from_cam);
+    FillRelative(map, *kf, is_anchor, &u.predecessor, &u.pred_from_cam, &u.parent, &u.parent_from_cam);
     batch.keyframe_updates.push_back(u);
   }
   resend_.clear();
   points.insert(resend_points.begin(), resend_points.end());
   for (const MapPointId id : points) {
     if (id.agent() != agent_) continue;
-    auto d = PackMapPoint(map, id);
+    auto d = PackMapPoint(map, id, is_anchor);
     if (!d) continue;
     auto sent = sent_points_.find(id);
     if (sent == sent_points_.end() && d->reference_kf.agent() == agent_ && !sent_kfs_.count(d->reference_kf)) {
@@ -171,7 +185,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
       ++points_sent_;
     } else if (sent->second.reference_kf != d->reference_kf ||
                (d->position_ref - sent->second.position_ref).norm() >
-                   min_point_update_ratio_ * sent->second.position_ref.norm()) {
+                   options_.min_point_update_ratio * sent->second.position_ref.norm()) {
       sent->second = {d->reference_kf, d->position_ref};
       batch.map_point_updates.push_back({id, d->reference_kf, d->position_ref});
     } else {
@@ -181,6 +195,43 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   batch.reference_kf = SharedReference(map, changes.reference_kf);
   if (++packs_ % 64 == 0) Forget(map);
   return batch;
+}
+
+bool ChangePacker::ServerHasInFull(KeyframeId id) const {
+  return id.agent() != agent_ || (sent_kfs_.count(id) > 0 && anchored_.count(id) == 0);
+}
+
+std::optional<KeyframeData> ChangePacker::PackNew(const Map& map, KeyframeId id, bool resend) {
+  const auto kf = map.keyframe(id);
+  if (!kf) return std::nullopt;
+  KeyframeId dup;
+  if (resend) {
+    // Resent as what it was sent as, while the keyframe it duplicates is still here.
+    const auto it = anchored_.find(id);
+    if (it != anchored_.end() && map.keyframe(it->second)) dup = it->second;
+  } else if (options_.anchor_duplicates.enabled()) {
+    // Observers: keyframes the server has in full and own keyframes still to be sent (most go
+    // in full: an anchor must be within a few centimetres of a full keyframe, so anchors
+    // never follow each other for long). Counting only what is already sent would miss
+    // most duplicates: at 1.5 s old a keyframe's points are ~25 % seen by younger keyframes.
+    dup = NearDuplicateOf(
+        map, *kf, options_.anchor_duplicates, [this](KeyframeId k) { return ServerHasInFull(k); },
+        [this](KeyframeId k) { return anchored_.count(k) == 0; });
+  }
+  auto d = PackKeyframe(map, id, [this](KeyframeId k) { return anchored_.count(k) > 0; });
+  const auto base = dup.valid() ? map.keyframe(dup) : nullptr;
+  if (!d || !base) {
+    anchored_.erase(id);
+    return d;
+  }
+  d->anchor_only = true;
+  d->features = std::make_shared<const FrameFeatures>();
+  d->point_links.clear();
+  d->parent = dup;
+  d->parent_from_cam = base->cam_from_world() * kf->world_from_cam();
+  anchored_[id] = dup;
+  ++anchors_sent_;
+  return d;
 }
 
 KeyframeId ChangePacker::SharedReference(const Map& map, KeyframeId vo_reference) const {
@@ -201,6 +252,9 @@ KeyframeId ChangePacker::SharedReference(const Map& map, KeyframeId vo_reference
 void ChangePacker::Forget(const Map& map) {
   // Ids that left the local map never change again: keep the sets bounded on long flights.
   for (auto it = sent_kfs_.begin(); it != sent_kfs_.end();) it = map.keyframe(*it) ? std::next(it) : sent_kfs_.erase(it);
+  for (auto it = anchored_.begin(); it != anchored_.end();) {
+    it = map.keyframe(it->first) ? std::next(it) : anchored_.erase(it);
+  }
   for (auto it = sent_points_.begin(); it != sent_points_.end();) {
     it = map.map_point(it->first) ? std::next(it) : sent_points_.erase(it);
   }

@@ -24,6 +24,9 @@ TEST(AgentConfig, LoadsValidFile) {
   EXPECT_EQ(c.max_keyframes, 10);
   EXPECT_DOUBLE_EQ(c.publish_rate_hz, 4.0);
   EXPECT_TRUE(c.map_sharing);
+  EXPECT_DOUBLE_EQ(c.anchor_duplicates.distance_ratio, 0.10) << "near-duplicates leave as anchors by default";
+  ASSERT_TRUE(LoadAgentConfig(Write("a2.yaml", "anchor_duplicate_distance_ratio: 0\n"), &c, &error)) << error;
+  EXPECT_FALSE(c.anchor_duplicates.enabled());
 }
 
 TEST(AgentConfig, RejectsUnknownKeyWrongTypeAndBadValue) {
@@ -35,6 +38,9 @@ TEST(AgentConfig, RejectsUnknownKeyWrongTypeAndBadValue) {
   EXPECT_NE(error.find("agent_id"), std::string::npos) << error;
   EXPECT_FALSE(LoadAgentConfig(Write("d.yaml", "agent_id: 0\n"), &c, &error));
   EXPECT_NE(error.find("1..65535"), std::string::npos) << error;
+  AgentConfig fresh;
+  EXPECT_FALSE(LoadAgentConfig(Write("d2.yaml", "anchor_duplicate_distance_ratio: 1.5\n"), &fresh, &error));
+  EXPECT_NE(error.find("anchor_duplicate_distance_ratio must be in [0, 1)"), std::string::npos) << error;
   EXPECT_FALSE(LoadAgentConfig("/nonexistent.yaml", &c, &error));
   EXPECT_NE(error.find("does not exist"), std::string::npos) << error;
 }

@@ -41,7 +41,7 @@ void AddAgentMessages(const AgentBatch& b, BaseMessages* out) {
 void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
   msg::CameraInfo& cam = m->camera();
   msg::Keypoint* kp = m->keypoints().empty() ? nullptr : &m->keypoints()[z.Index(m->keypoints().size())];
-  switch (z.rng()() % 16) {
+  switch (z.rng()() % 17) {
     case 0: m->protocol_version(z.Version()); break;
     case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
     case 2: m->id(z.Id(m->id())); break;
@@ -74,6 +74,16 @@ void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
       if (!m->mp_ids().empty()) { auto& id = m->mp_ids()[z.Index(m->mp_ids().size())]; id = z.Id(id); }
       break;
     case 14: z.Chance(0.5) ? m->predecessor_id(z.Id(m->predecessor_id())) : m->parent_id(z.Id(m->parent_id())); break;
+    case 15:
+      // Anchor flag flipped, with or without the features an anchor must not carry.
+      m->anchor_only(!m->anchor_only());
+      if (z.Chance(0.5)) {
+        m->keypoints().clear();
+        m->descriptors().clear();
+        m->mp_keypoint_index().clear();
+        m->mp_ids().clear();
+      }
+      break;
     default: {
       msg::Pose* poses[] = {&m->pred_from_this(), &m->parent_from_this(), &m->segment_from_this()};
       z.Pose(poses[z.Index(3)]);

@@ -89,6 +89,27 @@ TEST(MsgConversion, FirstKeyframeWithoutPredecessorParentOrReference) {
   EXPECT_TRUE(back->point_links.empty());
 }
 
+TEST(MsgConversion, AnchorOnlyKeyframeRoundTripCarriesPosesOnly) {
+  KeyframeData kf = testing::MakeKeyframeData(3, 12, testing::PinholeIntrinsics(), 0);
+  kf.point_links.clear();
+  kf.anchor_only = true;
+  msg::KeyframeFull m = ToMsg(kf, KeyframeId::Make(3, 11));
+  EXPECT_TRUE(m.keypoints().empty());
+  EXPECT_LT(msg::KeyframeFullPubSubType().getSerializedSizeProvider(&m)(), 400u)
+      << "an anchor must cost a few hundred bytes, not a keyframe's ~41 kB";
+  std::string error;
+  const auto back = FromMsg(m, nullptr, &error);
+  ASSERT_TRUE(back) << error;
+  EXPECT_TRUE(back->anchor_only);
+  EXPECT_EQ(back->features->size(), 0u);
+  EXPECT_EQ(back->parent, kf.parent);
+  ExpectSamePose(back->parent_from_cam, kf.parent_from_cam);
+  ExpectSamePose(back->pred_from_cam, kf.pred_from_cam);
+  const auto full = FromMsg(ToMsg(testing::MakeKeyframeData(3, 12, testing::PinholeIntrinsics(), 50), {}), nullptr, &error);
+  ASSERT_TRUE(full) << error;
+  EXPECT_FALSE(full->anchor_only);
+}
+
 TEST(MsgConversion, KeyframeBeyondTheKeypointBoundLosesTheRestAndItsLinks) {
   KeyframeData kf = testing::MakeKeyframeData(1, 5, testing::PinholeIntrinsics(), msg::kMaxKeypoints + 300);
   const msg::KeyframeFull m = ToMsg(kf, KeyframeId::Invalid());

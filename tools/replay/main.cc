@@ -163,6 +163,9 @@ int main(int argc, char** argv) {
   app.add_flag("--no-sharing", a.no_sharing, "do not send the server's neighbourhood back to the agents");
   auto* delay_opt = app.add_option("--keyframe-delay", a.replay.new_keyframe_delay_s,
                  "a new keyframe is sent once this old, data time [s] (as ccm_agent)")->capture_default_str();
+  auto* anchor_opt = app.add_option("--anchor-duplicates", a.replay.anchor_duplicates.distance_ratio,
+                 "near-duplicate keyframes (this share of the scene depth) leave as pose anchors only; "
+                 "0: every keyframe in full (as ccm_agent's anchor_duplicate_distance_ratio)")->capture_default_str();
   app.add_option("--agent-config", a.agent_config,
                  "ccm_agent YAML for every agent: its vo section, max_keyframes, buffer_keyframes, "
                  "new_keyframe_delay_s and map_sharing (the flags above win)")->check(CLI::ExistingFile);
@@ -184,6 +187,9 @@ int main(int argc, char** argv) {
     if (!ccm::agent::LoadAgentConfig(a.agent_config, &config, &config_error)) return Fail(config_error);
     a.replay.vo = config.EffectiveVo();
     if (delay_opt->count() == 0) a.replay.new_keyframe_delay_s = config.new_keyframe_delay_s;
+    const double ratio = a.replay.anchor_duplicates.distance_ratio;
+    a.replay.anchor_duplicates = config.anchor_duplicates;
+    if (anchor_opt->count() > 0) a.replay.anchor_duplicates.distance_ratio = ratio;
     a.replay.map_sharing = config.map_sharing && !a.no_sharing;
   }
   a.replay.server.redundancy.enabled = !a.no_redundancy;

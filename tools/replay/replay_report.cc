@@ -120,6 +120,8 @@ bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, cons
                       {"segments", a.segments},
                       {"keyframes_created", a.keyframes_created},
                       {"keyframes_registered", counters.keyframes_registered},
+                      {"keyframes_sent_as_anchors", counters.keyframes_anchor_only},
+                      {"keyframes_skipped_as_duplicates", counters.keyframes_duplicate},
                       {"keyframes_in_final_map", sc.server_keyframes},
                       {"path_m", sc.path_m},
                       {"standalone_ate_m", StatsJson(sc.standalone_ate_m)},

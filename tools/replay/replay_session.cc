@@ -60,7 +60,10 @@ class Session {
       }
       a->vo = std::make_unique<AgentVo>(in.id, a->camera, o_.vo, &a->acks, /*synchronous_mapping=*/!o_.threaded,
                                           o_.agent_vocabulary);
-      a->packer = std::make_unique<ChangePacker>(in.id, 0.01, o_.new_keyframe_delay_s);
+      ChangePackerOptions packing;
+      packing.new_keyframe_delay_s = o_.new_keyframe_delay_s;
+      packing.anchor_duplicates = o_.anchor_duplicates;
+      a->packer = std::make_unique<ChangePacker>(in.id, packing);
       const int64_t n = in.source->size();
       total_ += o_.max_frames >= 0 && (n < 0 || n > o_.max_frames) ? o_.max_frames : std::max<int64_t>(n, 0);
       a->input = std::move(in);
@@ -236,6 +239,7 @@ std::string ReplayOptions::Validate() const {
   if (auto e = server.Validate(); !e.empty()) return "server: " + e;
   if (!(send_period_s > 0.0)) return "send period must be > 0";
   if (!(new_keyframe_delay_s >= 0.0)) return "keyframe delay must be >= 0";
+  if (const std::string e = anchor_duplicates.Validate(); !e.empty()) return "anchor duplicates: " + e;
   if (!(progress_period_s > 0.0)) return "progress period must be > 0";
   return "";
 }

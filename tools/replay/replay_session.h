@@ -15,6 +15,7 @@
 
 #include "slam_core/io/frame_source.h"
 #include "slam_core/io/trajectory.h"
+#include "slam_core/map/near_duplicate.h"
 #include "slam_core/server/server_backend.h"
 #include "slam_core/vo/vo_options.h"
 
@@ -34,6 +35,9 @@ struct ReplayOptions {
   double send_period_s = 0.25;   ///< agent -> server batches, data time (CCM-SLAM: 2-5 Hz)
   /// New keyframes leave once this old (data time), as ccm_agent does (ChangePacker).
   double new_keyframe_delay_s = 1.5;
+  /// Near-duplicates leave as anchors only, as ccm_agent does (agent config
+  /// anchor_duplicate_*; distance_ratio 0: every keyframe in full).
+  NearDuplicateRule anchor_duplicates;
   bool map_sharing = true;       ///< server -> agent: k covisible keyframes each send period
   bool threaded = false;         ///< false: one thread, deterministic
   int64_t max_frames = -1;       ///< per agent (-1: all)

@@ -4,6 +4,9 @@
 // malformed input is counted and dropped.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <set>
+
 #include "slam_core/eval/alignment.h"
 #include "slam_core/eval/metrics.h"
 #include "tests/slam_core/server/server_test_util.h"
@@ -91,6 +94,66 @@ TEST(Registration, ServerReproducesTheAgentsKeyframeTrajectory) {
   const BackendStats st = backend.stats();
   EXPECT_EQ(st.agents.at(1).rejected, 0);
   EXPECT_GT(st.agents.at(1).updates_applied, 0) << "the agent's local-BA updates reach the server";
+}
+
+TEST(Registration, NearDuplicatesSentAsAnchorsLandAtTheirVoPose) {
+  // ccm_agent's packing: keyframes leave 1.5 s old, near-duplicates of keyframes the server
+  // has in full leave as pose anchors only.
+  ChangePackerOptions packing;
+  packing.new_keyframe_delay_s = 1.5;
+  packing.anchor_duplicates = NearDuplicateRule{};
+  const testing::VoStream s = RunVoStream(LoadSim("hall3"), 0, 0, 200, 5, {}, 1, packing);
+  std::set<KeyframeId> full, anchors;
+  for (const AgentBatch& b : s.batches) {
+    for (const KeyframeData& kf : b.keyframes) {
+      EXPECT_EQ(ValidateKeyframeData(kf, b.agent), "");
+      // Nothing hangs on an anchor: its pose on the server is never updated.
+      EXPECT_FALSE(anchors.count(kf.predecessor) || anchors.count(kf.parent)) << "placed relative to an anchor";
+      if (!kf.anchor_only) {
+        full.insert(kf.id);
+        continue;
+      }
+      EXPECT_TRUE(full.count(kf.parent)) << "an anchor hangs on a keyframe the server has in full";
+      anchors.insert(kf.id);
+    }
+    for (const KeyframePoseUpdate& u : b.keyframe_updates) {
+      EXPECT_FALSE(anchors.count(u.id) || anchors.count(u.predecessor) || anchors.count(u.parent));
+    }
+    // (A point sent earlier may name a keyframe that was still to be sent then.)
+    for (const MapPointData& mp : b.map_points) {
+      EXPECT_FALSE(anchors.count(mp.reference_kf)) << "a point is placed relative to a keyframe the server has";
+      for (const auto& obs : mp.observations) EXPECT_FALSE(anchors.count(obs.first)) << "anchors have no keypoints";
+    }
+  }
+  ASSERT_GE(anchors.size(), 3u) << full.size() << " keyframes in full, no near-duplicates found";
+  EXPECT_GE(full.size(), anchors.size() / 2) << "most keyframes cannot be near-duplicates of others";
+  std::printf("[ info     ] %zu keyframes sent in full, %zu as anchors\n", full.size(), anchors.size());
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  for (const AgentBatch& b : s.batches) {
+    ASSERT_EQ(backend.Submit(b), 0);
+    backend.ProcessAllQueued();
+  }
+  EXPECT_EQ(backend.stats().agents.at(1).keyframes_anchor_only, static_cast<int64_t>(anchors.size()));
+  // Every anchor is in the server's trajectory (not in its map), where the VO put it.
+  const double vo_path = PathLengthM([&] {
+    std::vector<SE3> poses;
+    for (const auto& k : s.keyframes) poses.push_back(k.world_from_cam);
+    return poses;
+  }());
+  size_t found = 0;
+  for (const ServerKeyframePose& p : backend.AgentTrajectory(1)) {
+    if (!anchors.count(p.id)) continue;
+    ++found;
+    const auto smap = backend.stack().MapHolding(p.id);
+    ASSERT_NE(smap, nullptr);
+    EXPECT_EQ(smap->map().keyframe(p.id), nullptr);
+    for (const KeyframePose& v : s.keyframes) {
+      if (v.id != p.id) continue;
+      EXPECT_LT((v.world_from_cam.translation() - p.world_from_cam.translation()).norm(), 0.02 * vo_path);
+      EXPECT_LT(v.world_from_cam.rotation().angularDistance(p.world_from_cam.rotation()), 0.02);
+    }
+  }
+  EXPECT_EQ(found, anchors.size());
 }
 
 TEST(Registration, PointsArrivingBeforeTheirKeyframeWaitAndLand) {
@@ -193,6 +256,41 @@ TEST(Submit, AFullAgentQueueDropsAndCountsInsteadOfGrowing) {
   EXPECT_EQ(backend.stats().agents.at(1).batches_dropped, refused);
   backend.ProcessAllQueued();
   EXPECT_GT(backend.AgentTrajectory(1).size(), 0u) << "what was queued is processed";
+}
+
+TEST(ServerMap, AnchorOffsetsFollowAScaleCorrectionOfTheirRoot) {
+  // Keyframe k1 (in the map) carries anchor a, which carries anchor b; k2 carries c. A Sim(3)
+  // correction that scaled the map around k1 by 1.5 must stretch a's and b's offsets; c's
+  // root did not change.
+  ServerMap smap(MapId::Make(1, 1), MapOptions{});
+  CameraIntrinsics intrinsics;
+  intrinsics.type = CameraType::kPinholeRadTan;
+  intrinsics.width_px = 752;
+  intrinsics.height_px = 480;
+  intrinsics.fx = intrinsics.fy = 458.0;
+  intrinsics.cx = 376.0;
+  intrinsics.cy = 240.0;
+  intrinsics.distortion = {0.0, 0.0, 0.0, 0.0};
+  std::shared_ptr<const CameraModel> camera(MakeCamera(intrinsics));
+  const auto pyramid = std::make_shared<const ScalePyramid>(ScalePyramid::Make(8, 1.2));
+  const KeyframeId k1 = KeyframeId::Make(1, 1), k2 = KeyframeId::Make(1, 2);
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()));
+  for (const auto& [id, x] : {std::pair{k1, 0.0}, std::pair{k2, 5.0}}) {
+    smap.map().AddKeyframe(std::make_shared<KeyFrame>(id, 0, camera, std::make_shared<FrameFeatures>(), pyramid,
+                                                      SE3(turn, Eigen::Vector3d(x, 1, 0))));
+  }
+  const KeyframeId a = KeyframeId::Make(1, 3), b = KeyframeId::Make(1, 4), c = KeyframeId::Make(1, 5);
+  const SE3 a_off(Eigen::Quaterniond::Identity(), {0.1, 0.0, 0.05}), b_off(turn, {0.0, 0.2, 0.0});
+  smap.AddAnchor(a, {k1, a_off, 0, MapId::Make(1, 1)});
+  smap.AddAnchor(b, {a, b_off, 0, MapId::Make(1, 1)});
+  smap.AddAnchor(c, {k2, a_off, 0, MapId::Make(1, 1)});
+  smap.RescaleAnchors([&](KeyframeId root) { return root == k1 ? 1.5 : 1.0; });
+  const SE3 w1 = *smap.PoseOf(k1), w2 = *smap.PoseOf(k2);
+  const auto scaled = [](const SE3& T) { return SE3(T.rotation(), 1.5 * T.translation()); };
+  EXPECT_LT((smap.PoseOf(a)->translation() - (w1 * scaled(a_off)).translation()).norm(), 1e-12);
+  EXPECT_LT((smap.PoseOf(b)->translation() - (w1 * scaled(a_off) * scaled(b_off)).translation()).norm(), 1e-12);
+  EXPECT_LT((smap.PoseOf(c)->translation() - (w2 * a_off).translation()).norm(), 1e-12);
+  EXPECT_LT(smap.PoseOf(b)->rotation().angularDistance((w1 * a_off * b_off).rotation()), 1e-12);
 }
 
 TEST(MapStack, RepointComposesTheFusionSim3AndScale) {

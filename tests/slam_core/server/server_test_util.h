@@ -41,7 +41,7 @@ inline std::shared_ptr<const sim::Simulation> LoadSim(const std::string& name) {
 }
 
 /// One agent's VO on a simulated flight (every `stride`-th frame), packed every
-/// `period_frames` frames.
+/// `period_frames` frames (with `packing`; default: no send delay, no anchors).
 struct VoStream {
   std::vector<AgentBatch> batches;
   std::shared_ptr<Map> final_map;      ///< the VO's local map at the end
@@ -50,14 +50,15 @@ struct VoStream {
 };
 
 inline VoStream RunVoStream(const std::shared_ptr<const sim::Simulation>& sim, int sim_agent, int64_t first_frame,
-                            int64_t frames, int period_frames = 5, VoOptions vo_options = {}, int64_t stride = 1) {
+                            int64_t frames, int period_frames = 5, VoOptions vo_options = {}, int64_t stride = 1,
+                            ChangePackerOptions packing = {}) {
   VoStream out;
   sim::SimFrameSource source(sim, sim_agent, first_frame, stride, frames);
   std::shared_ptr<const CameraModel> camera(MakeCamera(source.intrinsics()));
   static const AckAll acks;
   const AgentId id = static_cast<AgentId>(sim_agent + 1);
   AgentVo vo(id, camera, vo_options, &acks, /*synchronous_mapping=*/true);
-  ChangePacker packer(id);
+  ChangePacker packer(id, packing);
   int64_t n = 0;
   while (auto f = source.Next()) {
     out.ground_truth.push_back({f->stamp_ns, *f->world_from_cam_gt});
