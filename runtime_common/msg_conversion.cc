@@ -131,7 +131,6 @@ msg::MapPointFull ToMsg(const MapPointData& mp) {
     m.obs_kf_ids().push_back(kf.packed());
     m.obs_keypoint_index().push_back(static_cast<std::uint16_t>(index));
   }
-  m.descriptor(DescriptorToMsg(mp.descriptor));
   return m;
 }
 
@@ -155,7 +154,8 @@ std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, std::string* err
     if (index[i] >= msg::kMaxKeypoints) return reject("observation " + Str(i) + ": keypoint index " + Str(index[i]) + " out of range");
     mp.observations.emplace_back(kf, index[i]);
   }
-  mp.descriptor = DescriptorFromMsg(m.descriptor());
+  // No descriptor on the wire: the server takes the point's from its observing keyframes
+  // (Map::UpdateMapPointAppearance at registration), so mp.descriptor stays zero.
   if (auto e = ValidateMapPointData(mp, agent, kLimits); !e.empty()) return reject(e);
   return mp;
 }

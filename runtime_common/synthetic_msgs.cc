@@ -96,7 +96,6 @@ msg::MapPointFull MakeMapPoint(std::uint16_t agent, std::uint64_t index, int num
     mp.obs_kf_ids().push_back(KeyframeId::Make(agent, index / 100 + 1 + i).packed());
     mp.obs_keypoint_index().push_back(static_cast<std::uint16_t>(rng() % 1000));
   }
-  mp.descriptor(RandomDescriptor(rng));
   return mp;
 }
 

@@ -56,7 +56,7 @@ struct MapPointData {
   MapId segment;
   KeyframeId reference_kf;  ///< a keyframe observing it; the position is in its camera frame
   Eigen::Vector3d position_ref = Eigen::Vector3d::Zero();  ///< VO scale [m]
-  OrbDescriptor descriptor{};
+  OrbDescriptor descriptor{};  ///< not on the wire (protocol v4): the server derives it from the observations
   std::vector<std::pair<KeyframeId, int>> observations;  ///< (own keyframe, keypoint index)
 };
 

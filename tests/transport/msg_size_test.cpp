@@ -66,15 +66,16 @@ TEST(MsgSize, MapPointUpdateIs40BytesWithinA60ByteBudget) {
   EXPECT_TRUE(back == u);
 }
 
-TEST(MsgSize, FullMapPointAbout130Bytes) {
+TEST(MsgSize, FullMapPointAbout100Bytes) {
   msg::MapPointFull mp = synthetic::MakeMapPoint(4, 11, 5);
   msg::MapPointFull back;
   const auto bytes = SerializedSize<msg::MapPointFullPubSubType>(mp, &back);
   std::cout << "full map point, 5 observations: " << bytes << " B\n";
   // ids 2 x 2 + 4 x 8 (+ alignment), position 12, 5 x (8 + 2) observations + 2 x 4
-  // sequence lengths, descriptor 32 (version 2 also carried a 20 B normal/depth range).
-  EXPECT_LE(bytes, 140u);
-  EXPECT_GE(bytes, 120u);
+  // sequence lengths; no descriptor (version 3 carried 32 B, version 2 also 20 B of
+  // normal/depth range).
+  EXPECT_LE(bytes, 110u);
+  EXPECT_GE(bytes, 90u);
   EXPECT_TRUE(back == mp);
 }
 
