@@ -57,7 +57,10 @@ struct MapPointData {
   KeyframeId reference_kf;  ///< a keyframe observing it; the position is in its camera frame
   Eigen::Vector3d position_ref = Eigen::Vector3d::Zero();  ///< VO scale [m]
   OrbDescriptor descriptor{};  ///< not on the wire (protocol v4): the server derives it from the observations
-  std::vector<std::pair<KeyframeId, int>> observations;  ///< (own keyframe, keypoint index)
+  /// (own keyframe, keypoint index): those no keyframe's point links carry (the agent's
+  /// ChangePacker leaves out observations by keyframes whose links name the point; the
+  /// server attaches such links when the point arrives). May be empty.
+  std::vector<std::pair<KeyframeId, int>> observations;
 };
 
 /// New relative pose of a keyframe the server already has (agent's local BA moved it).

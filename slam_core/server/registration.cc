@@ -95,7 +95,11 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   smap->SetInfo(data.id, info);
   for (const auto& [idx, mp_id] : data.point_links) {
     const MapPointId resolved = smap->Resolve(mp_id);
-    if (map.map_point(resolved)) map.AddObservation(data.id, idx, resolved);
+    if (map.map_point(resolved)) {
+      map.AddObservation(data.id, idx, resolved);
+    } else if (mp_id.agent() == agent_) {
+      AddPendingLink(mp_id, data.id, idx);
+    }
   }
   int inliers = 0;
   reg.refined = RefinePose(smap, kf.get(), &inliers);
@@ -223,6 +227,10 @@ void AgentRegistration::RegisterPoint(const MapPointData& data, RegistrationRepo
   auto mp = std::make_shared<MapPoint>(data.id, p_w, ref, data.descriptor);
   map.AddMapPoint(mp);
   for (const auto& [kf_id, idx] : data.observations) map.AddObservation(kf_id, idx, data.id);
+  if (const auto it = pending_links_.find(data.id); it != pending_links_.end()) {
+    for (const auto& [kf_id, idx] : it->second) map.AddObservation(kf_id, idx, data.id);
+    pending_links_.erase(it);
+  }
   if (mp->num_observations() == 0) {
     map.EraseMapPoint(data.id);  // every observer was skipped or removed
     ++report->points_dropped;
@@ -231,6 +239,17 @@ void AgentRegistration::RegisterPoint(const MapPointData& data, RegistrationRepo
   if (!map.keyframe(ref)) mp->SetReferenceKf(mp->observations().front().first);
   map.UpdateMapPointAppearance(data.id);
   ++report->points_registered;
+}
+
+void AgentRegistration::AddPendingLink(MapPointId mp, KeyframeId kf, int keypoint) {
+  auto& links = pending_links_[mp];
+  if (links.empty()) pending_order_.push_back(mp);
+  links.emplace_back(kf, keypoint);
+  // pending_order_ also holds ids that resolved since (cheap to skip); the cap bounds both.
+  while (pending_order_.size() > static_cast<size_t>(options_.max_pending_links)) {
+    pending_links_.erase(pending_order_.front());
+    pending_order_.pop_front();
+  }
 }
 
 void AgentRegistration::ReleaseWaitingPoints(KeyframeId kf, RegistrationReport* report) {

@@ -10,6 +10,7 @@
 // lock shared).
 #pragma once
 
+#include <deque>
 #include <map>
 #include <memory>
 #include <unordered_map>
@@ -65,6 +66,7 @@ class AgentRegistration {
   void RegisterAnchor(const KeyframeData& kf, double scale, ServerMap* map, RegistrationReport* report);
   void RegisterPoint(const MapPointData& mp, RegistrationReport* report);
   void ReleaseWaitingPoints(KeyframeId kf, RegistrationReport* report);
+  void AddPendingLink(MapPointId mp, KeyframeId kf, int keypoint);
   bool RefinePose(ServerMap* map, KeyFrame* kf, int* inliers);
   void UpdateScale(const AgentHandler& handler, const KeyframeData& data, ServerMap* map, const KeyFrame& kf);
   void ApplyKeyframeUpdate(const KeyframePoseUpdate& u, RegistrationReport* report);
@@ -78,6 +80,11 @@ class AgentRegistration {
   /// Points whose reference keyframe has not arrived, by that keyframe.
   std::unordered_map<KeyframeId, std::vector<MapPointData>> waiting_;
   size_t num_waiting_ = 0;
+  /// Links of registered keyframes to own points not here yet: attached when the point
+  /// arrives (its message leaves such observations out). Oldest dropped beyond the cap
+  /// (links to points the agent culled before sending them never resolve).
+  std::unordered_map<MapPointId, std::vector<std::pair<KeyframeId, int>>> pending_links_;
+  std::deque<MapPointId> pending_order_;
 };
 
 /// t scaled by `scale` (rotation kept): a VO relative pose in map units.

@@ -8,6 +8,7 @@ std::string RegistrationOptions::Validate() const {
   if (!(scale_max_step > 1.0)) return "registration.scale_max_step must be > 1";
   if (refine_min_inliers < 3) return "registration.refine_min_inliers must be >= 3";
   if (max_pending_points < 0) return "registration.max_pending_points must be >= 0";
+  if (max_pending_links < 0) return "registration.max_pending_links must be >= 0";
   return "";
 }
 

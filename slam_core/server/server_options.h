@@ -22,6 +22,9 @@ struct RegistrationOptions {
   int refine_min_inliers = 15;  ///< pose refinement against the map needs this many inliers
   /// Points whose reference keyframe has not arrived wait for it, at most this many per agent.
   int max_pending_points = 20000;
+  /// Own points a registered keyframe links that have not arrived: their links wait for
+  /// them, for at most this many points per agent (oldest dropped).
+  int max_pending_links = 100000;
   std::string Validate() const;
 };
 

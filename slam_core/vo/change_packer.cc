@@ -108,6 +108,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
     sent_kfs_.clear();
     sent_points_.clear();
     anchored_.clear();
+    sent_links_.clear();
     deferred_kfs_.clear();
     deferred_points_.clear();
   }
@@ -151,6 +152,10 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
             if (link.second.agent() == agent_) resend_points.insert(link.second);
           }
         }
+        if (!d->anchor_only) {
+          auto& links = sent_links_[id];
+          for (const auto& link : d->point_links) links.insert(link.second);
+        }
         batch.keyframes.push_back(std::move(*d));
         sent_kfs_.insert(id);
         ++keyframes_sent_;
@@ -180,6 +185,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
       continue;
     }
     if (sent == sent_points_.end() || resend_points.count(id)) {
+      if (!resend_points.count(id)) OmitLinkedObservations(&*d);
       sent_points_[id] = {d->reference_kf, d->position_ref};
       batch.map_points.push_back(std::move(*d));
       ++points_sent_;
@@ -195,6 +201,22 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   batch.reference_kf = SharedReference(map, changes.reference_kf);
   if (++packs_ % 64 == 0) Forget(map);
   return batch;
+}
+
+void ChangePacker::OmitLinkedObservations(MapPointData* mp) const {
+  // The server attaches a keyframe's links to points it does not have yet once the point
+  // arrives (AgentRegistration), so an observation needs to travel with the point only if
+  // no keyframe link carries it: a keyframe sent before it observed the point. Keyframes
+  // still to be sent carry it in their links. (A resent point keeps all: the server that
+  // lost it may have lost the links too.) ~10 B per observation, ~4 per point.
+  auto& obs = mp->observations;
+  obs.erase(std::remove_if(obs.begin(), obs.end(),
+                           [&](const auto& o) {
+                             if (!sent_kfs_.count(o.first)) return true;
+                             const auto it = sent_links_.find(o.first);
+                             return it != sent_links_.end() && it->second.count(mp->id) > 0;
+                           }),
+            obs.end());
 }
 
 bool ChangePacker::ServerHasInFull(KeyframeId id) const {
@@ -252,6 +274,9 @@ KeyframeId ChangePacker::SharedReference(const Map& map, KeyframeId vo_reference
 void ChangePacker::Forget(const Map& map) {
   // Ids that left the local map never change again: keep the sets bounded on long flights.
   for (auto it = sent_kfs_.begin(); it != sent_kfs_.end();) it = map.keyframe(*it) ? std::next(it) : sent_kfs_.erase(it);
+  for (auto it = sent_links_.begin(); it != sent_links_.end();) {
+    it = map.keyframe(it->first) ? std::next(it) : sent_links_.erase(it);
+  }
   for (auto it = anchored_.begin(); it != anchored_.end();) {
     it = map.keyframe(it->first) ? std::next(it) : anchored_.erase(it);
   }

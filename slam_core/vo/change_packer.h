@@ -76,6 +76,7 @@ class ChangePacker {
   bool ServerHasInFull(KeyframeId id) const;
   /// `kf` packed in full, or as an anchor if it nearly duplicates a keyframe the server has.
   std::optional<KeyframeData> PackNew(const Map& map, KeyframeId id, bool resend);
+  void OmitLinkedObservations(MapPointData* mp) const;
 
   struct SentPoint {
     KeyframeId reference_kf;
@@ -90,6 +91,8 @@ class ChangePacker {
   std::unordered_map<MapPointId, SentPoint> sent_points_;  ///< as the server last got them
   std::unordered_set<KeyframeId> resend_;
   std::unordered_map<KeyframeId, KeyframeId> anchored_;  ///< sent as anchor -> the keyframe it duplicates
+  /// Own points each keyframe sent in full linked when it was sent.
+  std::unordered_map<KeyframeId, std::unordered_set<MapPointId>> sent_links_;
   MapId segment_;
   size_t keyframes_sent_ = 0, anchors_sent_ = 0, points_sent_ = 0, point_updates_skipped_ = 0;
   int packs_ = 0;

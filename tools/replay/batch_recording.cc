@@ -19,7 +19,7 @@ namespace ccm::replay {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'C', 'M', 'R', 'E', 'C', 'R', 'D'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: anchor-only keyframes
 using Pose7 = std::array<double, 7>;
 
 Pose7 P(const SE3& T) {
@@ -73,10 +73,11 @@ struct KfRec {
   std::vector<std::array<uint8_t, 32>> desc;
   std::vector<std::pair<int, uint64_t>> links;
   Pose7 pred_from_cam{}, parent_from_cam{}, segment_from_cam{};
+  bool anchor_only = false;
   template <class A>
   void serialize(A& a) {
     a(id, segment, pred, parent, stamp, camera, levels, scale_factor, kp, level, desc, links, pred_from_cam,
-      parent_from_cam, segment_from_cam);
+      parent_from_cam, segment_from_cam, anchor_only);
   }
 };
 
@@ -137,6 +138,7 @@ KfRec ToRec(const KeyframeData& k, uint32_t camera) {
   r.pred_from_cam = P(k.pred_from_cam);
   r.parent_from_cam = P(k.parent_from_cam);
   r.segment_from_cam = P(k.segment_from_cam);
+  r.anchor_only = k.anchor_only;
   return r;
 }
 
@@ -277,6 +279,7 @@ std::optional<Recording> LoadRecording(const std::string& path, std::string* err
       k.pred_from_cam = P(r.pred_from_cam);
       k.parent_from_cam = P(r.parent_from_cam);
       k.segment_from_cam = P(r.segment_from_cam);
+      k.anchor_only = r.anchor_only;
       b.keyframes.push_back(std::move(k));
     }
     for (const MpRec& r : br.mps) {
@@ -303,7 +306,11 @@ ReplayResult PlayRecording(const Recording& rec, ServerBackend* backend, const P
     if (o.threaded) runner = std::make_unique<server::BackendRunner>(backend);
     for (size_t i = o.first; i < last; ++i) {
       backend->Submit(rec.batches[i]);
-      if (!o.threaded) backend->ProcessAllQueued();
+      if (!o.threaded) {
+        backend->ProcessAllQueued();
+      } else if (o.threaded_window > 0 && (i + 1 - o.first) % o.threaded_window == 0) {
+        backend->WaitUntilIdle();
+      }
     }
     if (o.threaded) backend->WaitUntilIdle();
     if (o.final_global_ba) {

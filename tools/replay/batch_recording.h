@@ -39,6 +39,11 @@ struct PlayOptions {
   size_t first = 0;             ///< batches [first, last) are submitted
   size_t last = static_cast<size_t>(-1);
   bool threaded = false;        ///< BackendRunner threads instead of ProcessAllQueued per batch
+  /// Threaded: wait until the back-end is idle after every this many batches (0: submit all
+  /// at once). A live server gets each agent's data at its publish rate, not a whole flight
+  /// at once; dumped, one agent's handler races far ahead and cross-map detections, which
+  /// need consecutive consistent queries, depend on that race.
+  size_t threaded_window = 0;
   bool final_global_ba = true;
 };
 

@@ -156,6 +156,35 @@ TEST(Registration, NearDuplicatesSentAsAnchorsLandAtTheirVoPose) {
   EXPECT_EQ(found, anchors.size());
 }
 
+TEST(Registration, ObservationsCarriedByKeyframeLinksReachTheServersPoints) {
+  // Points travel with only the observations no keyframe link carries; the server attaches
+  // the links of keyframes that arrived before their points.
+  const testing::VoStream& s = Hall3Stream();
+  size_t points = 0, observations_sent = 0;
+  for (const AgentBatch& b : s.batches) {
+    points += b.map_points.size();
+    for (const MapPointData& mp : b.map_points) observations_sent += mp.observations.size();
+  }
+  ASSERT_GT(points, 500u);
+  // A triangulated point has >= 2 observations when it is created; sent with all of them,
+  // that would be >= 2 per point.
+  EXPECT_LT(observations_sent, 2 * points) << "observations that keyframe links carry went with the points too";
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  for (const AgentBatch& b : s.batches) {
+    backend.Submit(b);
+    backend.ProcessAllQueued();
+  }
+  const auto smap = backend.stack().MapHolding(s.batches.front().keyframes.front().id);
+  ASSERT_NE(smap, nullptr);
+  size_t on_server = 0, observed_twice = 0;
+  for (const auto& mp : smap->map().map_points()) {
+    ++on_server;
+    observed_twice += mp->num_observations() >= 2;
+  }
+  EXPECT_GE(backend.stats().agents.at(1).points_registered, static_cast<int64_t>(points * 9 / 10));
+  EXPECT_GE(observed_twice, on_server * 8 / 10) << "links did not reach the points";
+}
+
 TEST(Registration, PointsArrivingBeforeTheirKeyframeWaitAndLand) {
   const testing::VoStream& s = Hall3Stream();
   ServerBackend backend(SimVocabulary(), ServerOptions{});
