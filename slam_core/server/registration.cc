@@ -139,12 +139,7 @@ void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, S
     return;
   }
   // Anchor it on a keyframe in the map, so chains of anchors stay short.
-  KeyframeId base = via;
-  for (int hop = 0; hop < 64 && !smap->map().keyframe(base); ++hop) {
-    const auto a = smap->Anchor(base);
-    if (!a) break;
-    base = a->base;
-  }
+  const KeyframeId base = smap->AnchorRoot(via);
   const auto base_kf = smap->map().keyframe(base);
   if (!base_kf) {
     ++report->anchors_dropped;

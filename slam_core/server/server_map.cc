@@ -57,6 +57,16 @@ std::optional<SE3> ServerMap::PoseOf(KeyframeId id) const {
   return std::nullopt;
 }
 
+KeyframeId ServerMap::AnchorRoot(KeyframeId id) const {
+  std::lock_guard<std::mutex> lock(tables_mutex_);
+  for (int hop = 0; hop < 64; ++hop) {  // acyclic and short (see PoseOf); the cap guards corruption
+    const auto it = anchors_.find(id);
+    if (it == anchors_.end()) break;
+    id = it->second.base;
+  }
+  return id;
+}
+
 bool ServerMap::Knows(KeyframeId id) const {
   if (map_.keyframe(id)) return true;
   std::lock_guard<std::mutex> lock(tables_mutex_);
@@ -80,16 +90,9 @@ MapPointId ServerMap::Resolve(MapPointId id) const {
 
 void ServerMap::RescaleAnchors(const std::function<double(KeyframeId root)>& scale_of) {
   // Roots and scales outside the table lock: scale_of may look at the map.
-  const auto all = anchors();
   std::unordered_map<KeyframeId, double> scale;
-  for (const auto& [id, anchor] : all) {
-    KeyframeId root = anchor.base;
-    for (int hop = 0; hop < 64; ++hop) {
-      const auto it = all.find(root);
-      if (it == all.end()) break;
-      root = it->second.base;
-    }
-    const double s = scale_of(root);
+  for (const auto& [id, anchor] : anchors()) {
+    const double s = scale_of(AnchorRoot(anchor.base));
     if (s != 1.0) scale[id] = s;
   }
   std::lock_guard<std::mutex> lock(tables_mutex_);

@@ -82,6 +82,9 @@ class ServerMap {
   std::unordered_map<KeyframeId, KeyframeAnchor> anchors() const;
   /// Pose of a keyframe in this map, following anchors to a keyframe in the map.
   std::optional<SE3> PoseOf(KeyframeId id) const;
+  /// Where the chain of anchors starting at `id` ends: `id` itself if it is not anchored,
+  /// else the first base that is not (normally a keyframe in the map).
+  KeyframeId AnchorRoot(KeyframeId id) const;
   /// True if the keyframe is in the map or anchored to it.
   bool Knows(KeyframeId id) const;
   /// A Sim(3) correction (fusion, loop closure) changed the map's scale around some
