@@ -134,7 +134,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   std::set<MapPointId> points = changes.map_points, resend_points;
   points.insert(deferred_points_.begin(), deferred_points_.end());
   deferred_points_.clear();
-  const auto is_anchor = [this](KeyframeId kf) { return anchored_.count(kf) > 0; };
+  const KeyframeFilter is_anchor = [this](KeyframeId kf) { return IsAnchor(kf); };
   std::vector<KeyframeId> updated;  // packed after the new ones: they may become anchors
   for (const KeyframeId id : kfs) {
     if (id.agent() != agent_) continue;
@@ -167,7 +167,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   }
   for (const KeyframeId id : updated) {
     const auto kf = map.keyframe(id);
-    if (!kf || anchored_.count(id)) continue;  // the server ignores updates of anchors
+    if (!kf || IsAnchor(id)) continue;  // the server ignores updates of anchors
     KeyframePoseUpdate u;
     u.id = id;
     u.segment = map.id();
@@ -221,7 +221,7 @@ void ChangePacker::OmitLinkedObservations(MapPointData* mp) const {
 }
 
 bool ChangePacker::ServerHasInFull(KeyframeId id) const {
-  return id.agent() != agent_ || (sent_kfs_.count(id) > 0 && anchored_.count(id) == 0);
+  return id.agent() != agent_ || (sent_kfs_.count(id) > 0 && !IsAnchor(id));
 }
 
 std::optional<KeyframeData> ChangePacker::PackNew(const Map& map, KeyframeId id, bool resend) {
@@ -239,9 +239,9 @@ std::optional<KeyframeData> ChangePacker::PackNew(const Map& map, KeyframeId id,
     // most duplicates: at 1.5 s old a keyframe's points are ~25 % seen by younger keyframes.
     dup = NearDuplicateOf(
         map, *kf, options_.anchor_duplicates, [this](KeyframeId k) { return ServerHasInFull(k); },
-        [this](KeyframeId k) { return anchored_.count(k) == 0; });
+        [this](KeyframeId k) { return !IsAnchor(k); });
   }
-  auto d = PackKeyframe(map, id, [this](KeyframeId k) { return anchored_.count(k) > 0; });
+  auto d = PackKeyframe(map, id, [this](KeyframeId k) { return IsAnchor(k); });
   const auto base = dup.valid() ? map.keyframe(dup) : nullptr;
   if (!d || !base) {
     anchored_.erase(id);
