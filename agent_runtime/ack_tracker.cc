@@ -7,7 +7,9 @@ namespace ccm::agent {
 void AckTracker::OnSent(KeyframeId id, Clock::time_point now) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (acked_.count(id)) return;  // a resend of something the server already has
-  entries_[id].last_sent = now;
+  const auto [it, fresh] = entries_.try_emplace(id);
+  if (fresh) it->second.first_sent = now;
+  it->second.last_sent = now;
 }
 
 std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now) {
@@ -18,8 +20,10 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
     it->second.acked = true;
     ++acked_count_;
     acked_.insert(id);
+    latencies_ms_.push_back(std::chrono::duration<float, std::milli>(now - it->second.first_sent).count());
   }
   while (acked_.size() > kRememberedAcks) acked_.erase(acked_.begin());
+  while (latencies_ms_.size() > kRememberedAcks) latencies_ms_.pop_front();
   std::vector<KeyframeId> resend;
   // Walk in id order: an unacked entry directly followed by an acked one was skipped by
   // the server (lost or not yet processed): resend it unless it was sent very recently.
@@ -29,6 +33,7 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
     if (!it->second.acked && next->second.acked && now - it->second.last_sent >= holdoff_) {
       it->second.last_sent = now;
       ++resent_count_;
+      ++resent_gap_count_;
       resend.push_back(it->first);
     }
   }
@@ -38,11 +43,12 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
   return resend;
 }
 
-std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, Clock::time_point now) {
+std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, Clock::time_point now,
+                                            Clock::time_point not_before) {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<KeyframeId> out;
   for (auto& [id, entry] : entries_) {
-    if (!entry.acked && now - entry.last_sent >= timeout * (1 << std::min(entry.timeouts, 4))) {
+    if (!entry.acked && now - std::max(entry.last_sent, not_before) >= timeout * (1 << std::min(entry.timeouts, 4))) {
       entry.last_sent = now;
       ++entry.timeouts;
       ++resent_count_;
@@ -63,9 +69,30 @@ void AckTracker::Forget(KeyframeId id) {
   if (it != entries_.end() && !it->second.acked) entries_.erase(it);
 }
 
+AckTracker::Latency AckTracker::AckLatency() const {
+  std::vector<float> v;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    v.assign(latencies_ms_.begin(), latencies_ms_.end());
+  }
+  Latency l;
+  l.count = v.size();
+  if (v.empty()) return l;
+  std::sort(v.begin(), v.end());
+  l.median_ms = v[v.size() / 2];
+  l.p95_ms = v[std::min(v.size() - 1, v.size() * 95 / 100)];
+  l.max_ms = v.back();
+  return l;
+}
+
 std::uint64_t AckTracker::acked_count() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return acked_count_;
+}
+
+std::uint64_t AckTracker::resent_gap_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return resent_gap_count_;
 }
 
 std::uint64_t AckTracker::resent_count() const {

@@ -6,6 +6,7 @@
 #include <unordered_map>
 
 #include "runtime_common/topics.h"
+#include "runtime_common/wall_clock.h"
 
 namespace ccm::agent {
 namespace {
@@ -23,11 +24,6 @@ ChangePackerOptions PackerOptions(const AgentConfig& config) {
   o.new_keyframe_delay_s = config.new_keyframe_delay_s;
   o.anchor_duplicates = config.anchor_duplicates;
   return o;
-}
-
-int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
 }
 
 }  // namespace
@@ -85,8 +81,14 @@ void AgentComm::Stop() {
 }
 
 AgentCommStats AgentComm::Stats() const {
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  return stats_;
+  AgentCommStats s;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    s = stats_;
+  }
+  s.ack_latency = acks_->AckLatency();  // the tracker's own (leaf) lock, not under ours
+  s.kfs_resent_gap = acks_->resent_gap_count();
+  return s;
 }
 
 bool AgentComm::Drained() const {
@@ -132,8 +134,14 @@ void AgentComm::Run() {
       // A timeout resend only once DDS delivered everything written to a matched server:
       // while the reliable stream is still repairing, a resend only adds to its backlog. What
       // is left then was lost above DDS (a dropped batch, a restarted server).
-      if (keyframe_writer_->matched() > 0 && keyframe_writer_->WaitForAcknowledgments(std::chrono::milliseconds(0))) {
-        Resend(acks_->Overdue(ack_timeout, now));
+      // The wait starts at the match at the earliest, both ways (acks need the server's
+      // writers matched too): at 50 % loss discovery took up to 28 s, and the whole backlog
+      // was resent as soon as DDS had delivered it.
+      const bool matched = keyframe_writer_->matched() > 0 && server_reader_->matched() > 0;
+      if (matched && !server_matched_) server_matched_since_ = now;
+      server_matched_ = matched;
+      if (matched && keyframe_writer_->WaitForAcknowledgments(std::chrono::milliseconds(0))) {
+        Resend(acks_->Overdue(ack_timeout, now, server_matched_since_));
       }
       PackChanges();
       WriteBacklog();
@@ -156,7 +164,7 @@ void AgentComm::PackChanges() {
   if (flush_requested_) packer_.FlushNext();
   const auto t0 = Clock::now();
   VoChanges changes = vo_->TakeChanges();
-  const AgentBatch batch = packer_.Pack(changes, NowNs());
+  const AgentBatch batch = packer_.Pack(changes, rt::WallClockNs());
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   reference_kf_ = batch.reference_kf;
   segment_ = batch.segment;
@@ -285,7 +293,7 @@ void AgentComm::PublishStatus() {
   msg::AgentStatus status;
   status.protocol_version(msg::kProtocolVersion);
   status.agent_id(static_cast<std::uint16_t>(config_.agent_id));
-  status.stamp_ns(NowNs());
+  status.stamp_ns(rt::WallClockNs());
   status.ref_kf_id(reference_kf_.packed());
   status.map_segment_id(segment_.packed());
   const AgentCommStats s = Stats();

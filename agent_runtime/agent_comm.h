@@ -48,6 +48,8 @@ struct AgentCommStats {
   double pack_ms_max = 0.0;            ///< longest TakeChanges + Pack (the VO map's exposure)
   double pack_ms_total = 0.0;
   std::uint64_t packs = 0;
+  AckTracker::Latency ack_latency;     ///< first send -> ack (filled by Stats())
+  std::uint64_t kfs_resent_gap = 0;    ///< of kfs_resent, by the gap rule (filled by Stats())
 };
 
 class AgentComm {
@@ -109,6 +111,8 @@ class AgentComm {
   std::vector<msg::MapPointUpdate> mp_updates_;
   std::vector<std::string> rejection_kinds_logged_;
   std::set<uint64_t> resend_ids_;  ///< packed again for a resend, not written yet
+  bool server_matched_ = false;    ///< keyframe writer and server reader both matched at the last check
+  std::chrono::steady_clock::time_point server_matched_since_;  ///< when that began
 
   mutable std::mutex stats_mutex_;  // leaf
   std::condition_variable stats_cv_;  // notified after every cycle (WaitDrained)

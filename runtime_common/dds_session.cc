@@ -60,6 +60,11 @@ std::string DefaultQosFile() {
   return FindDataFile("qos_profiles/default.xml", std::string(CCM_QOS_DIR) + "/default.xml");
 }
 
+int AgentIdOfParticipantName(const std::string& name) {
+  static const std::string prefix = "ccm_";
+  return name.compare(0, prefix.size(), prefix) == 0 ? AgentIdOfPartition(name.substr(prefix.size())) : -1;
+}
+
 int AgentIdOfPartition(const std::string& partition) {
   static const std::string prefix = "agent_";
   if (partition.size() <= prefix.size() || partition.size() > prefix.size() + 5 ||
@@ -276,6 +281,23 @@ void DdsSession::on_publisher_discovery(dds::DomainParticipant*, eprosima::fastr
   }
   const auto& partition = info.info.m_qos.m_partition;
   writer_partitions_[info.info.guid()] = partition.begin() != partition.end() ? partition.begin()->name() : "";
+}
+
+void DdsSession::on_participant_discovery(dds::DomainParticipant*,
+                                          eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
+  using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+  if (info.status != Status::DISCOVERED_PARTICIPANT) return;
+  const int id = AgentIdOfParticipantName(info.info.m_participantName.to_string());
+  if (id < 0) return;
+  std::lock_guard<std::mutex> lock(writers_mutex_);
+  if (discovered_agents_.size() < 1024) discovered_agents_.push_back(id);  // bounded against floods
+}
+
+std::vector<int> DdsSession::TakeDiscoveredAgents() {
+  std::lock_guard<std::mutex> lock(writers_mutex_);
+  std::vector<int> out;
+  out.swap(discovered_agents_);
+  return out;
 }
 
 std::optional<std::string> DdsSession::WriterPartition(const eprosima::fastrtps::rtps::GUID_t& writer) const {

@@ -31,6 +31,8 @@ inline constexpr const char* kProfileUpdateReader = "ccm_update_reader";
 inline constexpr const char* kProfileStatusWriter = "ccm_status_writer";
 inline constexpr const char* kProfileStatusReader = "ccm_status_reader";
 inline constexpr const char* kProfileServerWriter = "ccm_server_writer";
+/// Server -> agent acks: their own writer so they never wait behind a neighbourhood.
+inline constexpr const char* kProfileServerAckWriter = "ccm_server_ack_writer";
 inline constexpr const char* kProfileServerReader = "ccm_server_reader";
 inline constexpr const char* kProfileServerStatusWriter = "ccm_server_status_writer";
 inline constexpr const char* kProfileServerStatusReader = "ccm_server_status_reader";

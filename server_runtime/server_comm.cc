@@ -5,16 +5,12 @@
 #include <algorithm>
 
 #include "runtime_common/topics.h"
+#include "runtime_common/wall_clock.h"
 
 namespace ccm::server {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // Caps per intake cycle, so one flooding agent cannot starve the outgoing side of the loop.
 constexpr int kMaxKeyframesPerCycle = 64;
@@ -390,7 +386,7 @@ void ServerComm::SubmitBatches(std::map<BatchKey, AgentBatch>* batches) {
         link.reference_kf = batch.reference_kf;
       }
     }
-    batch.stamp_ns = NowNs();
+    batch.stamp_ns = rt::WallClockNs();
     const int result = backend_->Submit(std::move(batch));
     std::lock_guard<std::mutex> lock(mutex_);
     AgentLink& link = stats_.agents[agent];
@@ -401,65 +397,6 @@ void ServerComm::SubmitBatches(std::map<BatchKey, AgentBatch>* batches) {
     }
   }
   batches->clear();
-}
-
-void ServerComm::PublishToAgents() {
-  const auto now = Clock::now();
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config_.publish_rate_hz));
-  std::vector<std::pair<AgentId, KeyframeId>> agents;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& [id, link] : stats_.agents) agents.emplace_back(id, link.reference_kf);
-  }
-  for (const auto& [agent, reference_kf] : agents) {
-    AgentState& st = states_[agent];
-    if (st.writer == nullptr) {
-      std::string error;
-      auto w = rt::TypedWriter<msg::ServerToAgentPubSubType>::Create(*session_, rt::kTopicServerToAgent,
-                                                                     rt::kProfileServerWriter, &error,
-                                                                     rt::AgentPartition(agent));
-      if (!w) {
-        spdlog::error("agent {}: no writer for its server messages: {}", agent, error);
-        continue;
-      }
-      st.writer = w.get();
-      writers_[agent] = std::move(w);
-    }
-    if (now < st.next_publish) continue;
-    st.next_publish = now + period;
-    const AgentAcks fresh = backend_->TakeAcks(agent);
-    for (const KeyframeId id : fresh.keyframes) st.kf_acks.push_back({id.packed(), config_.ack_repeats});
-    for (const MapPointId id : fresh.map_points) st.mp_acks.push_back({id.packed(), config_.ack_repeats});
-    // Oldest first; whatever does not fit in one message goes in the next.
-    auto take = [](std::deque<PendingAck>* pending, auto make_id) {
-      using IdT = decltype(make_id(0));
-      std::vector<IdT> ids;
-      for (PendingAck& a : *pending) {
-        if (ids.size() >= msg::kMaxAcks) break;
-        ids.push_back(make_id(a.id));
-        --a.repeats_left;
-      }
-      pending->erase(std::remove_if(pending->begin(), pending->end(), [](const PendingAck& a) { return a.repeats_left <= 0; }),
-                     pending->end());
-      return ids;
-    };
-    const auto kf_ids = take(&st.kf_acks, [](uint64_t v) { return KeyframeId(v); });
-    const auto mp_ids = take(&st.mp_acks, [](uint64_t v) { return MapPointId(v); });
-    int sent = 0, shared = 0;
-    if (!kf_ids.empty() || !mp_ids.empty()) {
-      sent += st.writer->Write(conv::ToMsg(agent, NowNs(), kf_ids, mp_ids, nullptr)) ? 1 : 0;
-    }
-    if (config_.map_sharing && config_.neighbourhood_k > 0 && reference_kf.valid() && reference_kf != st.shared_ref) {
-      if (auto data = backend_->Neighbourhood(agent, reference_kf)) {
-        st.shared_ref = reference_kf;
-        if (st.writer->Write(conv::ToMsg(agent, NowNs(), {}, {}, &*data))) ++sent, ++shared;
-      }
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    AgentLink& link = stats_.agents[agent];
-    link.messages_sent += sent;
-    link.neighbourhoods_sent += shared;
-  }
 }
 
 void ServerComm::CheckLiveliness() {

@@ -10,10 +10,14 @@
 //    queue; a batch beyond it is dropped and counted, and the agent resends every keyframe
 //    the server never acknowledged (with its points: ChangePacker::Resend).
 //  * outgoing, every 1/publish_rate_hz per agent: a small acks-only ServerToAgent (each ack
-//    repeated ack_repeats times: the topic is BEST_EFFORT) and, when map sharing is on and
-//    the agent's reference keyframe moved, a separate message with the k keyframes most
-//    covisible with it. Two messages because a 200 kB neighbourhood fragments into ~150
-//    datagrams and rarely survives a lossy link whole; the acks must.
+//    repeated ack_repeats times: the topic may be BEST_EFFORT) and, when map sharing is on
+//    and the agent's reference keyframe moved, a separate message with the k keyframes most
+//    covisible with it. Two messages, and two writers (profiles ccm_server_ack_writer and
+//    ccm_server_writer), because a 200 kB neighbourhood fragments into ~150 datagrams: on a
+//    reliable topic, acks written after it waited until it was repaired or replaced (at 50 %
+//    loss an agent got 24 messages in 60 s and left keyframes unacked). A new neighbourhood
+//    does not replace one the agent has not received yet for kNeighbourhoodPatience, so a
+//    lossy link delivers an older neighbourhood instead of none.
 //  * keyframes wait for their points: KFs and points travel on separate reliable streams, so
 //    on a lossy link a keyframe often arrives before the points it created. Registered
 //    without them it has nothing to refine against, and place recognition (which runs
@@ -54,6 +58,7 @@ struct AgentLink {
   int64_t rejected = 0;               ///< messages that failed validation
   int64_t batches_submitted = 0, batches_dropped = 0;
   int64_t messages_sent = 0, neighbourhoods_sent = 0;
+  int64_t neighbourhoods_deferred = 0;  ///< publish cycles that kept an undelivered one
   int64_t keyframes_released_incomplete = 0;  ///< held the maximum time, some points still missing
   KeyframeId reference_kf;
   MapId segment;
@@ -100,8 +105,18 @@ class ServerComm {
     std::deque<PendingAck> kf_acks, mp_acks;
     KeyframeId shared_ref;  ///< reference keyframe of the last neighbourhood sent
     std::chrono::steady_clock::time_point next_publish;
-    rt::TypedWriter<msg::ServerToAgentPubSubType>* writer = nullptr;
+    std::chrono::steady_clock::time_point last_neighbourhood;  ///< when it was written
   };
+  /// One agent's writers, both in its partition (rt::AgentPartition) on ccm/server_to_agent:
+  /// separate reliable streams, so acks never queue behind a neighbourhood under repair.
+  struct AgentWriters {
+    std::unique_ptr<rt::TypedWriter<msg::ServerToAgentPubSubType>> acks, neighbourhoods;
+  };
+  /// A neighbourhood the agent has not acknowledged (DDS-level) is replaced by a newer one
+  /// only after this long.
+  static constexpr std::chrono::seconds kNeighbourhoodPatience{5};
+  /// Creates `agent`'s writers on first use; false (logged) if DDS refused.
+  bool EnsureWriters(AgentId agent);
   using BatchKey = std::pair<AgentId, uint64_t>;  // (agent, segment)
   struct HeldKeyframe {
     KeyframeData data;
@@ -152,9 +167,9 @@ class ServerComm {
   std::unique_ptr<rt::TypedReader<msg::KeyframeUpdatePubSubType>> kf_update_reader_;
   std::unique_ptr<rt::TypedReader<msg::MapPointUpdateBatchPubSubType>> mp_update_reader_;
   std::unique_ptr<rt::TypedReader<msg::AgentStatusPubSubType>> status_reader_;
-  /// One writer per agent, in that agent's partition (rt::AgentPartition): created when the
-  /// agent is first heard of, so its messages reach it alone.
-  std::map<AgentId, std::unique_ptr<rt::TypedWriter<msg::ServerToAgentPubSubType>>> writers_;
+  /// Per agent, in that agent's partition: created when the agent is first heard of, so its
+  /// messages reach it alone.
+  std::map<AgentId, AgentWriters> writers_;
 
   // Comm thread.
   conv::CameraCache cameras_;

@@ -28,6 +28,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("ack_repeats", &config->ack_repeats);
+  r.Get("ack_points", &config->ack_points);
   r.Get("max_agents", &config->max_agents);
   r.Get("map_sharing", &config->map_sharing);
   r.Get("neighbourhood_k", &config->neighbourhood_k);

@@ -13,6 +13,7 @@ struct ServerConfig {
   std::string log_level = "info";
   double publish_rate_hz = 1.0;      // server -> agent messages per agent per second (< agent rate)
   int ack_repeats = 3;               // each ack is repeated in this many messages (they are BEST_EFFORT)
+  bool ack_points = false;           // also list processed map points (ccm_agent acts on keyframe acks only)
   int max_agents = 16;
   bool map_sharing = true;           // send each agent the k keyframes most covisible with its reference KF
   int neighbourhood_k = 5;           // that k (CCM-SLAM: 5)

@@ -27,6 +27,7 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                                   {"batches_dropped", l.batches_dropped},
                                   {"messages_sent", l.messages_sent},
                                   {"neighbourhoods_sent", l.neighbourhoods_sent},
+                                  {"neighbourhoods_deferred", l.neighbourhoods_deferred},
                                   {"keyframes_released_incomplete", l.keyframes_released_incomplete},
                                   {"segments", l.segments.size()},
                                   {"leaves", l.leaves},

@@ -6,14 +6,14 @@
 #include <chrono>
 
 #include "runtime_common/topics.h"
+#include "runtime_common/wall_clock.h"
 
 namespace ccm::server {
 
 status::ServerStatus MakeServerStatus(const ServerBackend& backend, const ServerCommStats& comm,
                                       const std::vector<rt::TopicCountersSnapshot>& traffic, const DaemonInfo& info) {
   status::ServerStatus s;
-  s.stamp_ns(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                 std::chrono::system_clock::now().time_since_epoch()).count());
+  s.stamp_ns(rt::WallClockNs());
   s.uptime_s(info.uptime_s);
   s.pid(static_cast<uint32_t>(getpid()));
   s.map_file(info.map_file.substr(0, 511));

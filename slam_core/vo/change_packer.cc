@@ -153,10 +153,6 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
             if (link.second.agent() == agent_) resend_points.insert(link.second);
           }
         }
-        if (!d->anchor_only) {
-          auto& links = sent_links_[id];
-          for (const auto& link : d->point_links) links.insert(link.second);
-        }
         batch.keyframes.push_back(std::move(*d));
         sent_kfs_.insert(id);
         ++keyframes_sent_;
@@ -164,6 +160,13 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
       continue;
     }
     updated.push_back(id);
+  }
+  // Links are settled once every keyframe of this batch is known as sent.
+  for (KeyframeData& d : batch.keyframes) {
+    if (d.anchor_only) continue;
+    if (!resend_.count(d.id)) DropLinksToLaterPoints(map, &d);
+    auto& links = sent_links_[d.id];
+    for (const auto& link : d.point_links) links.insert(link.second);
   }
   for (const KeyframeId id : updated) {
     const auto kf = map.keyframe(id);
@@ -207,9 +210,10 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
 void ChangePacker::OmitLinkedObservations(MapPointData* mp) const {
   // The server attaches a keyframe's links to points it does not have yet once the point
   // arrives (AgentRegistration), so an observation needs to travel with the point only if
-  // no keyframe link carries it: a keyframe sent before it observed the point. Keyframes
-  // still to be sent carry it in their links. (A resent point keeps all: the server that
-  // lost it may have lost the links too.) ~10 B per observation, ~4 per point.
+  // no keyframe link carries it: a keyframe sent before it observed the point, or sent
+  // before the point left (DropLinksToLaterPoints). Keyframes still to be sent carry it in
+  // their links. (A resent point keeps all: the server that lost it may have lost the links
+  // too.) ~10 B per observation, ~4 per point.
   auto& obs = mp->observations;
   obs.erase(std::remove_if(obs.begin(), obs.end(),
                            [&](const auto& o) {
@@ -218,6 +222,29 @@ void ChangePacker::OmitLinkedObservations(MapPointData* mp) const {
                              return it != sent_links_.end() && it->second.count(mp->id) > 0;
                            }),
             obs.end());
+}
+
+void ChangePacker::DropLinksToLaterPoints(const Map& map, KeyframeData* kf) const {
+  // A keyframe leaves new_keyframe_delay_s after it was made; by then it also observes
+  // points that younger keyframes created, and those wait for their own reference keyframe
+  // (deferred_points_). The server holds a keyframe until the own points it links arrive
+  // (up to 1.5 s): with those links, 40 % of the keyframes waited the full hold on a
+  // perfect link. Without them the observation travels with the point instead
+  // (OmitLinkedObservations keeps what no sent link carries). Called when every keyframe
+  // of the batch is in sent_kfs_, so points that leave in the same batch keep their links.
+  // (The point's own reference is an approximation of PackMapPoint's choice, which skips
+  // anchors: a miss only costs the server's bounded hold.)
+  auto& links = kf->point_links;
+  links.erase(std::remove_if(links.begin(), links.end(),
+                             [&](const auto& link) {
+                               const MapPointId mp_id = link.second;
+                               if (mp_id.agent() != agent_ || sent_points_.count(mp_id)) return false;
+                               const auto mp = map.map_point(mp_id);
+                               if (!mp) return false;
+                               const KeyframeId ref = mp->reference_kf();
+                               return ref != kf->id && !sent_kfs_.count(ref);
+                             }),
+              links.end());
 }
 
 bool ChangePacker::ServerHasInFull(KeyframeId id) const {

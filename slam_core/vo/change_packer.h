@@ -78,6 +78,8 @@ class ChangePacker {
   /// `kf` packed in full, or as an anchor if it nearly duplicates a keyframe the server has.
   std::optional<KeyframeData> PackNew(const Map& map, KeyframeId id, bool resend);
   void OmitLinkedObservations(MapPointData* mp) const;
+  /// Drops a new keyframe's links to own points that will not leave with it or before it.
+  void DropLinksToLaterPoints(const Map& map, KeyframeData* kf) const;
 
   struct SentPoint {
     KeyframeId reference_kf;

@@ -22,6 +22,7 @@ TEST(AckTracker, ResendsPredecessorOfAckedKeyframe) {
   ASSERT_EQ(resend.size(), 1u);
   EXPECT_EQ(resend[0], Kf(3));
   EXPECT_EQ(t.resent_count(), 1u);
+  EXPECT_EQ(t.resent_gap_count(), 1u);
   EXPECT_EQ(t.acked_count(), 3u);
   EXPECT_TRUE(t.IsAcked(Kf(4)));
   EXPECT_FALSE(t.IsAcked(Kf(3)));
@@ -55,6 +56,19 @@ TEST(AckTracker, OverdueKeyframesAreResentOnceThenAfterTimeout) {
   EXPECT_TRUE(t.Overdue(milliseconds(5000), t0 + milliseconds(100)).empty());
   EXPECT_EQ(t.Overdue(milliseconds(5000), t0 + milliseconds(6000)).size(), 2u);
   EXPECT_TRUE(t.Overdue(milliseconds(5000), t0 + milliseconds(7000)).empty());
+  EXPECT_EQ(t.resent_count(), 2u);
+  EXPECT_EQ(t.resent_gap_count(), 0u);
+}
+
+TEST(AckTracker, TheTimeoutCountsFromTheServerMatchAtTheEarliest) {
+  // Written while no server was matched: the keyframe waited in the DDS history, and the
+  // server matched at t0 + 20 s has not had 5 s to ack it yet.
+  AckTracker t;
+  const auto t0 = Clock::now();
+  t.OnSent(Kf(1), t0);
+  const auto matched = t0 + std::chrono::seconds(20);
+  EXPECT_TRUE(t.Overdue(milliseconds(5000), matched + milliseconds(1000), matched).empty());
+  EXPECT_EQ(t.Overdue(milliseconds(5000), matched + milliseconds(5000), matched).size(), 1u);
 }
 
 TEST(AckTracker, StaysBoundedOverALongRun) {
@@ -122,6 +136,24 @@ TEST(AckTracker, TheMappingThreadMayAskWhileTheCommThreadAcks) {
   EXPECT_EQ(t.acked_count(), 20000u);
   EXPECT_FALSE(t.IsAcked(Kf(7))) << "only the newest acknowledgements are remembered";
   EXPECT_TRUE(t.IsAcked(Kf(20000)));
+}
+
+TEST(AckTracker, AckLatencyCountsFromTheFirstSendNotTheResend) {
+  AckTracker t(milliseconds(100));
+  const auto t0 = Clock::now();
+  EXPECT_EQ(t.AckLatency().count, 0u);
+  t.OnSent(Kf(1), t0);
+  t.OnSent(Kf(2), t0 + milliseconds(100));
+  t.OnSent(Kf(1), t0 + milliseconds(5000));  // a timeout resend
+  t.OnAcked({Kf(1), Kf(2)}, t0 + milliseconds(6000));
+  t.OnAcked({Kf(1)}, t0 + milliseconds(7000));  // a repeated ack is not a second sample
+  const AckTracker::Latency l = t.AckLatency();
+  EXPECT_EQ(l.count, 2u);
+  EXPECT_NEAR(l.max_ms, 6000.0, 1.0);
+  EXPECT_NEAR(l.median_ms, 6000.0, 1.0);  // upper median of {5900, 6000}
+  t.OnSent(Kf(3), t0 + milliseconds(6000));
+  t.OnAcked({Kf(3)}, t0 + milliseconds(6010));
+  EXPECT_NEAR(t.AckLatency().median_ms, 5900.0, 1.0);
 }
 
 }  // namespace

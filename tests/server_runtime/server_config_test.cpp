@@ -10,12 +10,13 @@ namespace {
 
 TEST(ServerConfig, LoadsAndValidates) {
   const std::string path = ::testing::TempDir() + "/server.yaml";
-  std::ofstream(path) << "publish_rate_hz: 0.5\nack_repeats: 4\n";
+  std::ofstream(path) << "publish_rate_hz: 0.5\nack_repeats: 4\nack_points: true\n";
   ServerConfig c;
   std::string error;
   ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
   EXPECT_DOUBLE_EQ(c.publish_rate_hz, 0.5);
   EXPECT_EQ(c.ack_repeats, 4);
+  EXPECT_TRUE(c.ack_points);
 
   const std::string bad = ::testing::TempDir() + "/server_bad.yaml";
   std::ofstream(bad) << "ack_repeats: 0\n";

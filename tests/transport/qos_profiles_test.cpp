@@ -48,7 +48,8 @@ TEST(QosProfiles, EveryShippedFileCreatesEveryProfile) {
     // The profiles the runtimes select by name must all be present.
     for (const char* profile : {rt::kProfileParticipant, rt::kProfileNewDataWriter, rt::kProfileNewDataReader,
                                 rt::kProfileUpdateWriter, rt::kProfileUpdateReader, rt::kProfileStatusWriter,
-                                rt::kProfileStatusReader, rt::kProfileServerWriter, rt::kProfileServerReader,
+                                rt::kProfileStatusReader, rt::kProfileServerWriter, rt::kProfileServerAckWriter,
+                                rt::kProfileServerReader,
                                 rt::kProfileServerStatusWriter, rt::kProfileServerStatusReader}) {
       EXPECT_NE(results[0].output.find(std::string(profile) + "\n"), std::string::npos)
           << file << " lacks profile " << profile << ":\n" << results[0].output;

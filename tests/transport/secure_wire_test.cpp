@@ -184,6 +184,11 @@ TEST(SecureWire, AgentIdOfPartition) {
   EXPECT_EQ(rt::AgentIdOfPartition("agent_*"), -1);
   EXPECT_EQ(rt::AgentIdOfPartition("agent_1x"), -1);
   EXPECT_EQ(rt::AgentIdOfPartition(""), -1);
+  EXPECT_EQ(rt::AgentIdOfParticipantName("ccm_agent_3"), 3);
+  EXPECT_EQ(rt::AgentIdOfParticipantName("ccm_server"), -1);
+  EXPECT_EQ(rt::AgentIdOfParticipantName("ccm_agent_"), -1);
+  EXPECT_EQ(rt::AgentIdOfParticipantName("xccm_agent_3"), -1);
+  EXPECT_EQ(rt::AgentIdOfParticipantName("cc"), -1);
 }
 
 }  // namespace

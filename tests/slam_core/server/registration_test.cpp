@@ -24,6 +24,14 @@ const testing::VoStream& Hall3Stream() {
   return stream;
 }
 
+// The whole stream into the back-end, one batch at a time, as the comm module would.
+void SubmitAll(const testing::VoStream& s, ServerBackend* backend) {
+  for (const AgentBatch& b : s.batches) {
+    backend->Submit(b);
+    backend->ProcessAllQueued();
+  }
+}
+
 TEST(ChangePacker, RelativePosesReproduceTheVoMap) {
   const auto sim = LoadSim("hall3");
   ASSERT_NE(sim, nullptr);
@@ -170,10 +178,7 @@ TEST(Registration, ObservationsCarriedByKeyframeLinksReachTheServersPoints) {
   // that would be >= 2 per point.
   EXPECT_LT(observations_sent, 2 * points) << "observations that keyframe links carry went with the points too";
   ServerBackend backend(SimVocabulary(), ServerOptions{});
-  for (const AgentBatch& b : s.batches) {
-    backend.Submit(b);
-    backend.ProcessAllQueued();
-  }
+  SubmitAll(s, &backend);
   const auto smap = backend.stack().MapHolding(s.batches.front().keyframes.front().id);
   ASSERT_NE(smap, nullptr);
   size_t on_server = 0, observed_twice = 0;
@@ -183,6 +188,49 @@ TEST(Registration, ObservationsCarriedByKeyframeLinksReachTheServersPoints) {
   }
   EXPECT_GE(backend.stats().agents.at(1).points_registered, static_cast<int64_t>(points * 9 / 10));
   EXPECT_GE(observed_twice, on_server * 8 / 10) << "links did not reach the points";
+}
+
+TEST(Registration, DelayedKeyframesLinkOnlyPointsThatLeftWithThemOrBefore) {
+  // ccm_agent's packing: a keyframe leaves 1.5 s old, when younger keyframes have added
+  // points it observes; those wait for their own reference keyframe. The server holds a
+  // keyframe until its linked points arrive, so such links would hold it for nothing: the
+  // observation goes with the point instead, and must still reach the server.
+  ChangePackerOptions packing;
+  packing.new_keyframe_delay_s = 1.5;
+  const testing::VoStream s = RunVoStream(LoadSim("hall3"), 0, 0, 200, 5, {}, 1, packing);
+  std::set<MapPointId> sent;
+  size_t own_links = 0;
+  for (const AgentBatch& b : s.batches) {
+    for (const MapPointData& mp : b.map_points) sent.insert(mp.id);
+    for (const KeyframeData& kf : b.keyframes) {
+      for (const auto& [idx, mp] : kf.point_links) {
+        if (mp.agent() != b.agent) continue;
+        ++own_links;
+        EXPECT_TRUE(sent.count(mp)) << "keyframe " << kf.id.counter() << " links point " << mp.counter()
+                                    << " that has not left yet";
+      }
+    }
+  }
+  ASSERT_GT(own_links, 1000u);
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  SubmitAll(s, &backend);
+  // Every observation of a sent point by a sent keyframe in the VO's final map should be on
+  // the server (some differ: the server fuses duplicates and culls outliers; the VO goes on
+  // after its last batch).
+  const auto smap = backend.stack().MapHolding(s.batches.front().keyframes.front().id);
+  ASSERT_NE(smap, nullptr);
+  size_t vo_obs = 0, on_server = 0;
+  for (const auto& mp : s.final_map->map_points()) {
+    if (!sent.count(mp->id())) continue;
+    const auto server_mp = smap->map().map_point(smap->Resolve(mp->id()));
+    for (const auto& [kf, idx] : mp->observations()) {
+      if (!smap->map().keyframe(kf)) continue;  // not sent in full (yet)
+      ++vo_obs;
+      on_server += server_mp && smap->map().keyframe(kf)->MapPointAt(idx) == server_mp->id();
+    }
+  }
+  ASSERT_GT(vo_obs, 1000u);
+  EXPECT_GE(on_server, vo_obs * 85 / 100) << on_server << " of " << vo_obs << " observations reached the server";
 }
 
 TEST(Registration, PointsArrivingBeforeTheirKeyframeWaitAndLand) {

@@ -1,0 +1,110 @@
+// ServerComm's outgoing side (server -> agent): the acks and the neighbourhoods, each on
+// its own writer per agent (server_comm.h explains why). Comm thread only.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "runtime_common/topics.h"
+#include "runtime_common/wall_clock.h"
+#include "server_runtime/server_comm.h"
+
+namespace ccm::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+}  // namespace
+
+void ServerComm::PublishToAgents() {
+  const auto now = Clock::now();
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config_.publish_rate_hz));
+  std::vector<std::pair<AgentId, KeyframeId>> agents;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, link] : stats_.agents) agents.emplace_back(id, link.reference_kf);
+  }
+  // Writers for agents seen in participant discovery, before their first data (bounded by
+  // max_agents: a name grants nothing, so strangers cannot make the server create writers).
+  for (const int id : session_->TakeDiscoveredAgents()) {
+    if (writers_.count(static_cast<AgentId>(id)) || writers_.size() >= static_cast<size_t>(config_.max_agents)) continue;
+    EnsureWriters(static_cast<AgentId>(id));
+  }
+  for (const auto& [agent, reference_kf] : agents) {
+    if (!EnsureWriters(agent)) continue;
+    AgentState& st = states_[agent];
+    AgentWriters& writers = writers_[agent];
+    if (now < st.next_publish) continue;
+    st.next_publish = now + period;
+    const AgentAcks fresh = backend_->TakeAcks(agent);
+    for (const KeyframeId id : fresh.keyframes) st.kf_acks.push_back({id.packed(), config_.ack_repeats});
+    // Point acks are off by default: ccm_agent does not use them (a point is resent with
+    // its keyframe), and at ~300 points per second they made every ack message ~6 kB, i.e.
+    // 5 fragments that a lossy link must all deliver (one datagram without them).
+    if (config_.ack_points) {
+      for (const MapPointId id : fresh.map_points) st.mp_acks.push_back({id.packed(), config_.ack_repeats});
+    }
+    // Oldest first; whatever does not fit in one message goes in the next.
+    auto take = [](std::deque<PendingAck>* pending, auto make_id) {
+      using IdT = decltype(make_id(0));
+      std::vector<IdT> ids;
+      for (PendingAck& a : *pending) {
+        if (ids.size() >= msg::kMaxAcks) break;
+        ids.push_back(make_id(a.id));
+        --a.repeats_left;
+      }
+      pending->erase(std::remove_if(pending->begin(), pending->end(), [](const PendingAck& a) { return a.repeats_left <= 0; }),
+                     pending->end());
+      return ids;
+    };
+    const auto kf_ids = take(&st.kf_acks, [](uint64_t v) { return KeyframeId(v); });
+    const auto mp_ids = take(&st.mp_acks, [](uint64_t v) { return MapPointId(v); });
+    int sent = 0, shared = 0, deferred = 0;
+    if (!kf_ids.empty() || !mp_ids.empty()) {
+      sent += writers.acks->Write(conv::ToMsg(agent, rt::WallClockNs(), kf_ids, mp_ids, nullptr)) ? 1 : 0;
+    }
+    if (config_.map_sharing && config_.neighbourhood_k > 0 && reference_kf.valid() && reference_kf != st.shared_ref) {
+      // Zero timeout: only asks whether the agent's reader has the last one.
+      const bool delivered = writers.neighbourhoods->WaitForAcknowledgments(std::chrono::milliseconds(0));
+      if (!delivered && now - st.last_neighbourhood < kNeighbourhoodPatience) {
+        deferred = 1;
+      } else if (auto data = backend_->Neighbourhood(agent, reference_kf)) {
+        st.shared_ref = reference_kf;
+        st.last_neighbourhood = now;
+        if (writers.neighbourhoods->Write(conv::ToMsg(agent, rt::WallClockNs(), {}, {}, &*data))) ++sent, ++shared;
+      }
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    AgentLink& link = stats_.agents[agent];
+    link.messages_sent += sent;
+    link.neighbourhoods_sent += shared;
+    link.neighbourhoods_deferred += deferred;
+  }
+}
+
+bool ServerComm::EnsureWriters(AgentId agent) {
+  AgentWriters& w = writers_[agent];
+  if (w.acks && w.neighbourhoods) return true;
+  using Writer = rt::TypedWriter<msg::ServerToAgentPubSubType>;
+  const std::string partition = rt::AgentPartition(agent);
+  std::string error;
+  if (!w.neighbourhoods) {
+    w.neighbourhoods = Writer::Create(*session_, rt::kTopicServerToAgent, rt::kProfileServerWriter, &error, partition);
+    if (!w.neighbourhoods) {
+      spdlog::error("agent {}: no writer for its server messages: {}", agent, error);
+      return false;
+    }
+  }
+  w.acks = Writer::Create(*session_, rt::kTopicServerToAgent, rt::kProfileServerAckWriter, &error, partition);
+  if (!w.acks) {
+    // A QoS file from before the ack profile existed: acks share the neighbourhoods' QoS.
+    spdlog::warn("agent {}: {}; acks use profile '{}'", agent, error, rt::kProfileServerWriter);
+    w.acks = Writer::Create(*session_, rt::kTopicServerToAgent, rt::kProfileServerWriter, &error, partition);
+    if (!w.acks) {
+      spdlog::error("agent {}: no writer for its acks: {}", agent, error);
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace ccm::server
