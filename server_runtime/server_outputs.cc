@@ -9,6 +9,18 @@
 
 namespace ccm::server {
 
+namespace {
+
+nlohmann::json FusionStages(const PlaceMatcherStats& place) {
+  nlohmann::json j = nlohmann::json::object();
+  for (int s = 0; s < kNumVerificationStages; ++s) {
+    j[VerificationStageName(static_cast<VerificationStage>(s))] = place.fusion_stopped_at[s];
+  }
+  return j;
+}
+
+}  // namespace
+
 std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::TopicCountersSnapshot>& traffic,
                             const BackendStats& backend, int indent) {
   nlohmann::json agents = nlohmann::json::object();
@@ -53,6 +65,16 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                             {"wrong_partition", comm.wrong_partition},
                             {"fusions", backend.fusions},
                             {"loops", backend.loops},
+                            // Why maps did or did not fuse: each stage's count, in order.
+                            {"place_recognition", {{"queries", backend.place.queries},
+                                                   {"fusion_candidates", backend.place.match_candidates},
+                                                   {"loop_candidates", backend.place.loop_candidates},
+                                                   {"verified", backend.place.verified},
+                                                   {"inconsistent", backend.place.inconsistent},
+                                                   {"implausible_loops", backend.place.implausible_loops},
+                                                   {"accepted_fusions", backend.place.accepted_fusions},
+                                                   {"accepted_loops", backend.place.accepted_loops},
+                                                   {"fusion_verifications_stopped_at", FusionStages(backend.place)}}},
                             {"traffic", topics}};
   return j.dump(indent);
 }

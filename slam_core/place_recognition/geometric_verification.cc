@@ -130,6 +130,12 @@ std::vector<FeatureMatch> ConsistentMatches(const VerificationView& cand, const 
 
 }  // namespace
 
+const char* VerificationStageName(VerificationStage stage) {
+  static const char* kNames[kNumVerificationStages] = {"input",          "bow_matches",     "ransac", "refinement",
+                                                       "guided_matches", "spatial_support", "accepted"};
+  return kNames[static_cast<int>(stage)];
+}
+
 std::string VerificationView::Validate() const {
   if (!camera) return "camera missing";
   if (features.descriptors.size() != features.keypoints.size()) return "keypoints/descriptors size differ";
@@ -213,12 +219,14 @@ VerificationResult VerifyPlace(const VerificationView& candidate, const Verifica
     r.reason = "invalid input: " + problem;
     return r;
   }
+  r.stage = VerificationStage::kBowMatches;
   const std::vector<FeatureMatch> bow = BowMatches(candidate, query, options.bow_match);
   r.bow_matches = static_cast<int>(bow.size());
   if (r.bow_matches < options.min_bow_matches) {
     r.reason = "too few BoW matches (" + std::to_string(r.bow_matches) + ")";
     return r;
   }
+  r.stage = VerificationStage::kRansac;
   const solvers::Sim3Result sim3 = RunSim3(candidate, query, bow, options.sim3);
   r.ransac_inliers = sim3.num_inliers;
   if (!sim3.ok() || sim3.num_inliers < options.min_inliers) {
@@ -226,17 +234,25 @@ VerificationResult VerifyPlace(const VerificationView& candidate, const Verifica
                std::to_string(sim3.num_inliers) + " inliers";
     return r;
   }
+  r.stage = VerificationStage::kRefinement;
   r.reason = RefineAndSearch(candidate, query, sim3.b_from_a, options, &r);
   if (!r.reason.empty()) return r;
   if (r.final_inliers < options.min_inliers) {
     r.reason = "too few inliers after refinement (" + std::to_string(r.final_inliers) + ")";
-  } else if (r.total_matches < options.min_total_matches) {
-    r.reason = "too few matches after guided search (" + std::to_string(r.total_matches) + ")";
-  } else if (r.spatial_support < options.min_spatial_support) {
-    r.reason = "matches supported in too few image regions (" + std::to_string(r.spatial_support) + ")";
-  } else {
-    r.accepted = true;
+    return r;
   }
+  r.stage = VerificationStage::kGuidedMatches;
+  if (r.total_matches < options.min_total_matches) {
+    r.reason = "too few matches after guided search (" + std::to_string(r.total_matches) + ")";
+    return r;
+  }
+  r.stage = VerificationStage::kSpatialSupport;
+  if (r.spatial_support < options.min_spatial_support) {
+    r.reason = "matches supported in too few image regions (" + std::to_string(r.spatial_support) + ")";
+    return r;
+  }
+  r.stage = VerificationStage::kAccepted;
+  r.accepted = true;
   return r;
 }
 

@@ -60,8 +60,14 @@ struct VerificationOptions {
   std::string Validate() const;
 };
 
+/// Where a verification stopped, in pipeline order (kAccepted if it passed every test).
+enum class VerificationStage { kInput, kBowMatches, kRansac, kRefinement, kGuidedMatches, kSpatialSupport, kAccepted };
+constexpr int kNumVerificationStages = 7;
+const char* VerificationStageName(VerificationStage stage);
+
 struct VerificationResult {
   bool accepted = false;
+  VerificationStage stage = VerificationStage::kInput;
   std::string reason;              ///< why it was rejected (empty if accepted)
   Sim3 query_from_candidate;       ///< p_query = S * p_candidate (camera frames, map scales)
   int bow_matches = 0;

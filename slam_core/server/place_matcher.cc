@@ -126,6 +126,10 @@ std::optional<PlaceMatcher::View> PlaceMatcher::Snapshot(KeyframeId id) const {
 
 std::optional<PlaceMatcher::Pending> PlaceMatcher::Verify(const View& q, const View& c, PlaceDetection::Kind kind) {
   const VerificationResult v = VerifyPlace(c.view, q.view, options_.verification);
+  if (kind == PlaceDetection::Kind::kFusion) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.fusion_stopped_at[static_cast<int>(v.stage)];
+  }
   if (!v.accepted) return std::nullopt;
   Bump(&PlaceMatcherStats::verified);
   Pending p;

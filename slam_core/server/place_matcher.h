@@ -9,12 +9,14 @@
 // database is thread-safe for the other callers (erase after redundancy removal, fusion).
 #pragma once
 
+#include <array>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <vector>
 
+#include "slam_core/place_recognition/geometric_verification.h"
 #include "slam_core/place_recognition/keyframe_database.h"
 #include "slam_core/place_recognition/vocabulary.h"
 #include "slam_core/server/map_stack.h"
@@ -37,6 +39,9 @@ struct PlaceMatcherStats {
   int64_t queries = 0;
   int64_t loop_candidates = 0, match_candidates = 0;
   int64_t verified = 0;       ///< candidates that passed geometric verification
+  /// Fusion candidates by the verification stage they stopped at (VerificationStageName):
+  /// tells an operator whether maps that should fuse fail on appearance or on geometry.
+  std::array<int64_t, kNumVerificationStages> fusion_stopped_at{};
   int64_t inconsistent = 0;   ///< verified, but the next detection disagreed or never came
   int64_t implausible_loops = 0;  ///< verified loops whose correction exceeds the drift bound
   int64_t accepted_loops = 0, accepted_fusions = 0;

@@ -1,8 +1,8 @@
 // End-to-end system test (issue 11): ccm_server and two ccm_agent processes with the real VO
-// on a short excerpt of the simulator's hall3 scenario (agents 0 and 1 overlap early), over
-// the shipped wifi.xml profiles. Run once on a perfect link and once with every process
-// losing 20% of its incoming datagrams and delaying the rest by 200 ms (in-process fault
-// transport). Both runs must fuse the two maps, lose no keyframe (every keyframe the agents
+// on a short excerpt of the simulator's hall3 scenario (sim agents 1 and 2, see
+// kFirstSimAgent), over the shipped wifi.xml profiles. Run once on a perfect link and once
+// with every process losing 20% of its incoming datagrams and delaying the rest by 200 ms
+// (in-process fault transport). Both runs must fuse the two maps, lose no keyframe (every keyframe the agents
 // created and did not drop from a full buffer is acknowledged), and the lossy run's
 // collaborative ATE (the server's keyframes of both agents, one Sim(3) alignment against
 // the simulator's ground truth) must stay within 1.5x of the loss-free run's.
@@ -29,10 +29,12 @@ struct TeamRun {
   std::string logs;
 };
 
-// 30 s of flight per agent at 20 Hz. The maps fuse after ~20 s of data; since half of the
-// keyframes arrive as anchors only (not in place recognition's database), one of ~10
-// invocations with 25 s did not fuse in time, so the flight is 5 s longer.
+// 30 s of flight per agent at 20 Hz. Sim agent 1 flies past what sim agent 2 saw at ~11 s
+// from ~19 to ~24 s; the maps fused at 19.0-19.7 s of data in 10 of 10 runs (6 loss-free,
+// 4 lossy). Sim agents 0 and 1, used before, overlap only for 2-3 s (at 14-16 s) within the
+// first 60 s: 1 of 19 local runs and one CI run missed that single chance.
 constexpr int kFrames = 600;
+constexpr int kFirstSimAgent = 1;
 
 TeamRun RunTeam(const std::string& name, int domain, double drop, int delay_ms) {
   const std::string dir = ::testing::TempDir() + "/collab_" + name;
@@ -46,9 +48,9 @@ TeamRun RunTeam(const std::string& name, int domain, double drop, int delay_ms) 
   std::vector<std::vector<std::string>> cmds;
   cmds.push_back({CCM_SERVER, "--idle-exit", "4", "--duration", "240", "--out", dir + "/server"});
   for (int a = 0; a < 2; ++a) {
-    cmds.push_back({CCM_AGENT, "--agent-id", std::to_string(a + 1), "--sim", "hall3", "--sim-agent", std::to_string(a),
-                    "--max-frames", std::to_string(kFrames), "--rate", "realtime", "--drain", "60",
-                    "--ground-truth", dir + "/gt" + std::to_string(a + 1) + ".tum"});
+    cmds.push_back({CCM_AGENT, "--agent-id", std::to_string(a + 1), "--sim", "hall3", "--sim-agent",
+                    std::to_string(kFirstSimAgent + a), "--max-frames", std::to_string(kFrames), "--rate",
+                    "realtime", "--drain", "60", "--ground-truth", dir + "/gt" + std::to_string(a + 1) + ".tum"});
   }
   for (auto& c : cmds) c.insert(c.end(), common.begin(), common.end());
   const auto results = testing::RunConcurrently(cmds, dir + "/run", std::chrono::seconds(300));
@@ -92,7 +94,14 @@ void ExpectNothingLost(const TeamRun& run, const std::string& name) {
     EXPECT_EQ(on_server["batches_dropped"].get<int>(), 0) << name;
     EXPECT_EQ(on_server["rejected"].get<int>(), 0) << name;
   }
-  EXPECT_GE(run.server["fusions"].get<int>(), 1) << name << ": the two agents' maps did not fuse\n" << run.logs;
+  EXPECT_GE(run.server["fusions"].get<int>(), 1)
+      << name << ": the two agents' maps did not fuse; place recognition: " << run.server["place_recognition"].dump()
+      << "\n"
+      << run.logs;
+  // A fusion is two verifications that agree (a keyframe and a covisible neighbour).
+  EXPECT_GE(run.server["place_recognition"]["fusion_verifications_stopped_at"]["accepted"].get<int>(),
+            2 * run.server["fusions"].get<int>())
+      << name;
 }
 
 TEST(Collaboration, TwoAgentsFuseWithoutLossUnder20PercentLossAnd200msDelay) {
@@ -102,11 +111,11 @@ TEST(Collaboration, TwoAgentsFuseWithoutLossUnder20PercentLossAnd200msDelay) {
   ExpectNothingLost(lossy, "lossy");
   ASSERT_GT(clean.joint_ate_m, 0.0) << clean.logs;
   ASSERT_GT(lossy.joint_ate_m, 0.0) << lossy.logs;
-  // The issue asks for 1.5x. Measured over 6 runs: loss-free 0.016-0.021 m, lossy
-  // 0.028-0.032 m (ratio 1.3-1.9): the lossy run is reliably a little worse (late updates,
-  // fewer shared keyframes), and the real-time VO threads make every run's keyframes differ
-  // by several mm. The bound keeps 1.5x plus 15 mm of run-to-run jitter so that CI is not a
-  // coin toss; a protocol regression (lost updates, misplaced keyframes) costs far more
+  // The issue asks for 1.5x. Measured on sim agents 1 and 2: loss-free 0.020-0.037 m (6
+  // runs), lossy 0.016-0.029 m (4 runs); on agents 0 and 1 before: loss-free 0.016-0.021 m,
+  // lossy 0.028-0.032 m. The real-time VO threads make every run's keyframes differ by
+  // several mm, more than the loss costs. The bound keeps 1.5x plus 15 mm of run-to-run
+  // jitter so that CI is not a coin toss; a protocol regression (lost updates, misplaced keyframes) costs far more
   // (0.06 m before updates that overtake their keyframe were kept).
   EXPECT_LE(lossy.joint_ate_m, 1.5 * clean.joint_ate_m + 0.015)
       << "loss-free " << clean.joint_ate_m << " m, lossy " << lossy.joint_ate_m << " m";

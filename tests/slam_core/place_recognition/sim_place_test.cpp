@@ -255,6 +255,7 @@ TEST(GeometricVerificationTest, RejectsInvalidInputAndUnrelatedViews) {
   VerificationResult r = VerifyPlace(empty, empty);
   EXPECT_FALSE(r.accepted);
   EXPECT_NE(r.reason.find("invalid input"), std::string::npos) << r.reason;
+  EXPECT_EQ(r.stage, VerificationStage::kInput);
   // Two keyframes of disjoint2's two rooms: nothing in common.
   auto s = MakeSim("disjoint2");
   SimKeyframeOptions o;
@@ -267,9 +268,13 @@ TEST(GeometricVerificationTest, RejectsInvalidInputAndUnrelatedViews) {
   r = VerifyPlace(a[0].view, b[0].view);
   EXPECT_FALSE(r.accepted);
   EXPECT_FALSE(r.reason.empty());
+  // Different rooms share too few words to even try a Sim(3): stopped at the BoW matches.
+  EXPECT_EQ(r.stage, VerificationStage::kBowMatches) << r.reason;
+  EXPECT_STREQ(VerificationStageName(r.stage), "bow_matches");
   // The same keyframe against itself: accepted with the identity.
   r = VerifyPlace(a[0].view, a[0].view);
   EXPECT_TRUE(r.accepted) << r.reason;
+  EXPECT_EQ(r.stage, VerificationStage::kAccepted);
   EXPECT_NEAR(r.query_from_candidate.scale(), 1.0, 1e-3);
   EXPECT_LT(r.query_from_candidate.translation().norm(), 1e-3);
   EXPECT_GE(r.total_matches, 100);
