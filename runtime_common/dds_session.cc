@@ -286,7 +286,7 @@ void DdsSession::on_publisher_discovery(dds::DomainParticipant*, eprosima::fastr
 void DdsSession::on_participant_discovery(dds::DomainParticipant*,
                                           eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
   using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
-  if (info.status != Status::DISCOVERED_PARTICIPANT) return;
+  if (!options_.track_agent_participants || info.status != Status::DISCOVERED_PARTICIPANT) return;
   const int id = AgentIdOfParticipantName(info.info.m_participantName.to_string());
   if (id < 0) return;
   std::lock_guard<std::mutex> lock(writers_mutex_);

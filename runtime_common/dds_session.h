@@ -49,6 +49,9 @@ struct SessionOptions {
   /// Empty: the installed/source-tree qos_profiles/secure.xml.
   std::string security_file;
   std::string security_profile = "ccm_secure_participant";
+  /// Record agents' participants as they are discovered (TakeDiscoveredAgents): the server
+  /// only; other processes would collect ids nobody reads.
+  bool track_agent_participants = false;
 };
 
 /// Loads an XML profiles file with a clear error for a missing file or a parse failure.
@@ -98,12 +101,14 @@ class DdsSession : private eprosima::fastdds::dds::DomainParticipantListener {
   /// Ids of agents whose participant ("ccm_agent_<id>") was discovered since the last call.
   /// The server creates an agent's writers then, so their endpoint discovery runs alongside
   /// the agent's own instead of after its first data (at 50 % loss each took ~15 s).
-  /// The name is only a hint: it grants nothing.
+  /// The name is only a hint: it grants nothing. Empty unless the session was created with
+  /// track_agent_participants.
   std::vector<int> TakeDiscoveredAgents();
 
  private:
   explicit DdsSession(SessionOptions options);
-  // DomainParticipantListener: only records the writer's partition (discovery thread).
+  // DomainParticipantListener (discovery thread): records writers' partitions and, with
+  // track_agent_participants, agents' participants.
   void on_publisher_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                               eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override;
   void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,

@@ -42,6 +42,7 @@ bool ValidAgentId(uint16_t id) { return id != 0; }
 std::unique_ptr<ServerComm> ServerComm::Create(const ServerConfig& config, rt::SessionOptions session_options,
                                                ServerBackend* backend, std::string* error) {
   session_options.participant_name = "ccm_server";
+  session_options.track_agent_participants = true;  // agents' writers are made at discovery
   auto session = rt::DdsSession::Create(session_options, error);
   if (!session) return nullptr;
   std::unique_ptr<ServerComm> c(new ServerComm(config, std::move(session), backend));

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <set>
+#include <thread>
 
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
@@ -103,6 +105,38 @@ TEST(FaultInjection, DelaysEveryDeliveredDatagram) {
     ++measured;
   }
   EXPECT_GE(measured, 8);
+}
+
+// The server makes an agent's writers when discovery names "ccm_agent_<id>"; only a session
+// created to track agents records them (others would fill a list nobody reads).
+TEST(DdsSessionDiscovery, OnlyATrackingSessionRecordsAgentParticipants) {
+  auto session = [](const std::string& name, bool track) {
+    rt::SessionOptions options;
+    options.qos_file = std::string(CCM_QOS_DIR) + "/default.xml";
+    options.domain_id = 174;
+    options.participant_name = name;
+    options.track_agent_participants = track;
+    std::string error;
+    auto s = rt::DdsSession::Create(options, &error);
+    EXPECT_TRUE(s) << error;
+    return s;
+  };
+  auto server = session("ccm_server", true);
+  auto agent7 = session("ccm_agent_7", false);
+  auto agent8 = session("ccm_agent_8", false);
+  auto ctl = session("ccm_ctl", false);
+  ASSERT_TRUE(server && agent7 && agent8 && ctl);
+  std::set<int> seen;
+  const auto deadline = Clock::now() + std::chrono::seconds(20);
+  while (seen.size() < 2 && Clock::now() < deadline) {
+    for (const int id : server->TakeDiscoveredAgents()) seen.insert(id);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(seen, (std::set<int>{7, 8}));  // ccm_ctl and the server itself are no agents
+  EXPECT_TRUE(server->TakeDiscoveredAgents().empty());  // taken once
+  // agent7 discovered agent8 (and the others) by now, but does not track.
+  EXPECT_TRUE(agent7->TakeDiscoveredAgents().empty());
+  EXPECT_TRUE(ctl->TakeDiscoveredAgents().empty());
 }
 
 }  // namespace
