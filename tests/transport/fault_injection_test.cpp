@@ -16,11 +16,14 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-std::unique_ptr<rt::DdsSession> MakeSession(int domain, rt::FaultOptions fault) {
+std::unique_ptr<rt::DdsSession> MakeSession(int domain, rt::FaultOptions fault, const std::string& name = "ccm",
+                                            bool track_agents = false) {
   rt::SessionOptions options;
   options.qos_file = std::string(CCM_QOS_DIR) + "/default.xml";
   options.domain_id = domain;
   options.fault = fault;
+  options.participant_name = name;
+  options.track_agent_participants = track_agents;
   std::string error;
   auto session = rt::DdsSession::Create(options, &error);
   EXPECT_TRUE(session) << error;
@@ -110,21 +113,10 @@ TEST(FaultInjection, DelaysEveryDeliveredDatagram) {
 // The server makes an agent's writers when discovery names "ccm_agent_<id>"; only a session
 // created to track agents records them (others would fill a list nobody reads).
 TEST(DdsSessionDiscovery, OnlyATrackingSessionRecordsAgentParticipants) {
-  auto session = [](const std::string& name, bool track) {
-    rt::SessionOptions options;
-    options.qos_file = std::string(CCM_QOS_DIR) + "/default.xml";
-    options.domain_id = 174;
-    options.participant_name = name;
-    options.track_agent_participants = track;
-    std::string error;
-    auto s = rt::DdsSession::Create(options, &error);
-    EXPECT_TRUE(s) << error;
-    return s;
-  };
-  auto server = session("ccm_server", true);
-  auto agent7 = session("ccm_agent_7", false);
-  auto agent8 = session("ccm_agent_8", false);
-  auto ctl = session("ccm_ctl", false);
+  auto server = MakeSession(174, {}, "ccm_server", true);
+  auto agent7 = MakeSession(174, {}, "ccm_agent_7");
+  auto agent8 = MakeSession(174, {}, "ccm_agent_8");
+  auto ctl = MakeSession(174, {}, "ccm_ctl");
   ASSERT_TRUE(server && agent7 && agent8 && ctl);
   std::set<int> seen;
   const auto deadline = Clock::now() + std::chrono::seconds(20);
