@@ -62,7 +62,7 @@ struct VerificationOptions {
 
 /// Where a verification stopped, in pipeline order (kAccepted if it passed every test).
 enum class VerificationStage { kInput, kBowMatches, kRansac, kRefinement, kGuidedMatches, kSpatialSupport, kAccepted };
-constexpr int kNumVerificationStages = 7;
+constexpr int kNumVerificationStages = static_cast<int>(VerificationStage::kAccepted) + 1;
 const char* VerificationStageName(VerificationStage stage);
 
 struct VerificationResult {
