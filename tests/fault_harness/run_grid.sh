@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The network-fault grid of CCM-SLAM's evaluation (issue 11): 1, 2, 3 agents x {perfect,
 # delay 0.5 s, P_loss 0.2, P_loss 0.5}. Each cell runs ccm_server and the agents as separate
-# processes on the simulator's hall3 scenario over qos_profiles/wifi.xml; the fault applies
+# processes on the simulator's hall3 scenario (sim agents 0..n-1; 1 and 2 for two agents) over qos_profiles/wifi.xml; the fault applies
 # per direction in every receiving process (the in-process fault transport: --drop,
 # --delay-ms), so agent -> server and server -> agent traffic both see it. Per cell: traffic
 # per agent both ways [MB/s of flight], keyframes lost (left the agent's N + B buffer
@@ -47,9 +47,13 @@ for n in $AGENTS; do
     server_pid=$!
     pids=()
     for ((a = 1; a <= n; a++)); do
+      # Two agents fly hall3's sim agents 1 and 2 (a ~5 s overlap at 19-24 s, as the
+      # Collaboration test); sim agents 0 and 1 overlap for only 2-3 s in their first 60 s,
+      # so a 2-agent cell on them could show 0 fusions by chance.
+      sim_agent=$((n == 2 ? a : a - 1))
       cfg="$cell/agent$a.yaml"
       printf 'max_keyframes: %s\n' "$N" >"$cfg"
-      "$BIN/agent_runtime/ccm_agent" -c "$cfg" "${common[@]}" --agent-id "$a" --sim hall3 --sim-agent $((a - 1)) \
+      "$BIN/agent_runtime/ccm_agent" -c "$cfg" "${common[@]}" --agent-id "$a" --sim hall3 --sim-agent "$sim_agent" \
         --max-frames "$FRAMES" --rate "$RATE" --drain 120 --ground-truth "$cell/gt$a.tum" >"$cell/agent$a.log" 2>&1 &
       pids+=($!)
     done
