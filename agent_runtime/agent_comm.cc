@@ -15,9 +15,10 @@ using Clock = std::chrono::steady_clock;
 
 // Bytes a message takes on the wire (close enough for the rate limit).
 size_t WireBytes(const msg::KeyframeFull& m) {
-  return 160 + m.keypoints().size() * 6 + m.descriptors().size() * 32 + m.mp_ids().size() * 10;
+  return 170 + m.keypoints().size() * 6 + m.descriptors().size() * 32 + m.own_mp_offsets().size() * 6 +
+         m.other_mp_ids().size() * 10;
 }
-size_t WireBytes(const msg::MapPointFull& m) { return 120 + m.obs_kf_ids().size() * 10; }
+size_t WireBytes(const msg::MapPointFull& m) { return 48 + m.obs_kf_offsets().size() * 6; }
 
 ChangePackerOptions PackerOptions(const AgentConfig& config) {
   ChangePackerOptions o;

@@ -26,24 +26,69 @@ std::string SegmentFromCounter(std::uint32_t counter, AgentId agent, MapId* out)
   return "";
 }
 
-// The keypoint-indexed links: equal lengths, indices inside the keyframe, valid point ids.
-std::string LinksFromMsg(const msg::KeyframeFull& m, size_t num_keypoints, KeyframeData* kf) {
-  const auto& index = m.mp_keypoint_index();
-  const auto& ids = m.mp_ids();
-  if (index.size() != ids.size()) return Str(index.size()) + " link indices but " + Str(ids.size()) + " link ids";
-  if (index.size() > num_keypoints) return Str(index.size()) + " point links for " + Str(num_keypoints) + " keypoints";
-  kf->point_links.reserve(index.size());
-  for (size_t i = 0; i < index.size(); ++i) {
-    if (index[i] >= num_keypoints) return "point link " + Str(i) + ": keypoint index " + Str(index[i]) + " out of range";
-    MapPointId mp;
-    if (auto e = AnyIdFromMsg(ids[i], "map point", true, &mp); !e.empty()) return "point link " + Str(i) + ": " + e;
-    kf->point_links.emplace_back(index[i], mp);
+// The keypoint-indexed links: equal lengths, indices inside the keyframe, valid point ids
+// (own links: the base is the sender's own id and base + offset stays a valid counter).
+std::string LinksFromMsg(const msg::KeyframeFull& m, AgentId agent, size_t num_keypoints, KeyframeData* kf) {
+  const auto& own_index = m.own_mp_keypoint_index();
+  const auto& offsets = m.own_mp_offsets();
+  const auto& other_index = m.other_mp_keypoint_index();
+  const auto& other_ids = m.other_mp_ids();
+  if (own_index.size() != offsets.size()) {
+    return Str(own_index.size()) + " own link indices but " + Str(offsets.size()) + " offsets";
   }
+  if (other_index.size() != other_ids.size()) {
+    return Str(other_index.size()) + " link indices but " + Str(other_ids.size()) + " link ids";
+  }
+  const size_t total = own_index.size() + other_index.size();
+  if (total > num_keypoints) return Str(total) + " point links for " + Str(num_keypoints) + " keypoints";
+  MapPointId base;
+  if (!own_index.empty()) {
+    if (auto e = OwnIdFromMsg(m.own_mp_base(), agent, "point link base", &base); !e.empty()) return e;
+  }
+  kf->point_links.reserve(total);
+  for (size_t i = 0; i < own_index.size(); ++i) {
+    if (own_index[i] >= num_keypoints) {
+      return "own point link " + Str(i) + ": keypoint index " + Str(own_index[i]) + " out of range";
+    }
+    const std::uint64_t counter = base.counter() + offsets[i];
+    if (counter > MapPointId::kCounterMask) return "own point link " + Str(i) + ": offset " + Str(offsets[i]) + " out of range";
+    kf->point_links.emplace_back(own_index[i], MapPointId::Make(agent, counter));
+  }
+  for (size_t i = 0; i < other_index.size(); ++i) {
+    if (other_index[i] >= num_keypoints) {
+      return "point link " + Str(i) + ": keypoint index " + Str(other_index[i]) + " out of range";
+    }
+    MapPointId mp;
+    if (auto e = AnyIdFromMsg(other_ids[i], "map point", true, &mp); !e.empty()) return "point link " + Str(i) + ": " + e;
+    kf->point_links.emplace_back(other_index[i], mp);
+  }
+  // The links travel in two lists; the keyframe keeps them in keypoint order.
+  std::sort(kf->point_links.begin(), kf->point_links.end());
   return "";
 }
 
+void LinksToMsg(const KeyframeData& kf, size_t sent_keypoints, msg::KeyframeFull* m) {
+  const AgentId agent = kf.id.agent();
+  MapPointId base;
+  for (const auto& [index, mp] : kf.point_links) {
+    if (mp.agent() == agent && (!base.valid() || mp.counter() < base.counter())) base = mp;
+  }
+  m->own_mp_base(base.packed());
+  for (const auto& [index, mp] : kf.point_links) {
+    if (index < 0 || static_cast<size_t>(index) >= sent_keypoints) continue;  // left out with its keypoint
+    const auto keypoint = static_cast<std::uint16_t>(index);
+    if (mp.agent() == agent && mp.counter() - base.counter() <= std::numeric_limits<std::uint32_t>::max()) {
+      m->own_mp_keypoint_index().push_back(keypoint);
+      m->own_mp_offsets().push_back(static_cast<std::uint32_t>(mp.counter() - base.counter()));
+    } else {
+      m->other_mp_keypoint_index().push_back(keypoint);
+      m->other_mp_ids().push_back(mp.packed());
+    }
+  }
+}
+
 // Everything of a KeyframeFull but its ids and the protocol version.
-std::string KeyframeBodyFromMsg(const msg::KeyframeFull& m, CameraCache* cameras, KeyframeData* kf) {
+std::string KeyframeBodyFromMsg(const msg::KeyframeFull& m, AgentId agent, CameraCache* cameras, KeyframeData* kf) {
   if (m.stamp_ns() < 0) return "negative stamp";
   kf->stamp_ns = m.stamp_ns();
   if (auto e = CameraFromMsg(m.camera(), cameras, &kf->camera); !e.empty()) return e;
@@ -54,7 +99,7 @@ std::string KeyframeBodyFromMsg(const msg::KeyframeFull& m, CameraCache* cameras
       !e.empty()) {
     return e;
   }
-  if (auto e = LinksFromMsg(m, kf->features->size(), kf); !e.empty()) return e;
+  if (auto e = LinksFromMsg(m, agent, kf->features->size(), kf); !e.empty()) return e;
   if (auto e = PoseFromMsg(m.pred_from_this(), "pred_from_this", &kf->pred_from_cam); !e.empty()) return e;
   if (auto e = PoseFromMsg(m.parent_from_this(), "parent_from_this", &kf->parent_from_cam); !e.empty()) return e;
   return PoseFromMsg(m.segment_from_this(), "segment_from_this", &kf->segment_from_cam);
@@ -77,11 +122,7 @@ msg::KeyframeFull ToMsg(const KeyframeData& kf, KeyframeId agent_reference_kf) {
     sent = std::min<size_t>(kf.features->size(), msg::kMaxKeypoints);
     FeaturesToMsg(*kf.features, sent, &m.keypoints(), &m.descriptors());
   }
-  for (const auto& [index, mp] : kf.point_links) {
-    if (index < 0 || static_cast<size_t>(index) >= sent) continue;  // left out with its keypoint
-    m.mp_keypoint_index().push_back(static_cast<std::uint16_t>(index));
-    m.mp_ids().push_back(mp.packed());
-  }
+  LinksToMsg(kf, sent, &m);
   m.predecessor_id(kf.predecessor.packed());
   m.pred_from_this(PoseToMsg(kf.pred_from_cam));
   m.parent_id(kf.parent.packed());
@@ -108,7 +149,7 @@ std::optional<KeyframeData> FromMsg(const msg::KeyframeFull& m, CameraCache* cam
   if (kf.predecessor.valid() && kf.predecessor.agent() != agent) return reject("predecessor of another agent");
   if (auto e = AnyIdFromMsg(m.parent_id(), "parent", false, &kf.parent); !e.empty()) return reject(e);
   if (auto e = AnyIdFromMsg(m.ref_kf_id(), "reference keyframe", false, &reference); !e.empty()) return reject(e);
-  if (auto e = KeyframeBodyFromMsg(m, cameras, &kf); !e.empty()) return reject(e);
+  if (auto e = KeyframeBodyFromMsg(m, agent, cameras, &kf); !e.empty()) return reject(e);
   kf.anchor_only = m.anchor_only();
   if (auto e = ValidateKeyframeData(kf, agent, kLimits); !e.empty()) return reject(e);
   if (agent_reference_kf != nullptr) *agent_reference_kf = reference;
@@ -119,16 +160,25 @@ msg::MapPointFull ToMsg(const MapPointData& mp) {
   msg::MapPointFull m;
   m.protocol_version(msg::kProtocolVersion);
   m.agent_id(mp.id.agent());
+  m.segment_counter(SegmentCounter(mp.segment, mp.id.agent()));
   m.id(mp.id.packed());
-  m.segment_id(mp.segment.packed());
   m.ref_kf_id(mp.reference_kf.packed());
   m.x_ref(static_cast<float>(mp.position_ref.x()));
   m.y_ref(static_cast<float>(mp.position_ref.y()));
   m.z_ref(static_cast<float>(mp.position_ref.z()));
+  const auto ref = static_cast<std::int64_t>(mp.reference_kf.counter());
   for (const auto& [kf, index] : mp.observations) {
-    if (m.obs_kf_ids().size() >= msg::kMaxObservations) break;
+    if (m.obs_kf_offsets().size() >= msg::kMaxObservations) break;
     if (index < 0 || index > std::numeric_limits<std::uint16_t>::max()) continue;
-    m.obs_kf_ids().push_back(kf.packed());
+    // Observers of one point are keyframes made close together; one that is not cannot be
+    // expressed and is left out like an out-of-range index (the server links it again
+    // through the keyframe's own links).
+    const std::int64_t offset = static_cast<std::int64_t>(kf.counter()) - ref;
+    if (kf.agent() != mp.id.agent() || offset < std::numeric_limits<std::int32_t>::min() ||
+        offset > std::numeric_limits<std::int32_t>::max()) {
+      continue;
+    }
+    m.obs_kf_offsets().push_back(static_cast<std::int32_t>(offset));
     m.obs_keypoint_index().push_back(static_cast<std::uint16_t>(index));
   }
   return m;
@@ -141,18 +191,23 @@ std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, std::string* err
   const AgentId agent = m.agent_id();
   MapPointData mp;
   if (auto e = OwnIdFromMsg(m.id(), agent, "map point", &mp.id); !e.empty()) return reject(e);
-  if (auto e = OwnIdFromMsg(m.segment_id(), agent, "segment", &mp.segment); !e.empty()) return reject(e);
+  if (auto e = SegmentFromCounter(m.segment_counter(), agent, &mp.segment); !e.empty()) return reject(e);
   if (auto e = OwnIdFromMsg(m.ref_kf_id(), agent, "reference keyframe", &mp.reference_kf); !e.empty()) return reject(e);
   if (auto e = PositionFromMsg(m.x_ref(), m.y_ref(), m.z_ref(), &mp.position_ref); !e.empty()) return reject(e);
-  const auto& kfs = m.obs_kf_ids();
+  const auto& offsets = m.obs_kf_offsets();
   const auto& index = m.obs_keypoint_index();
-  if (kfs.size() != index.size()) return reject(Str(kfs.size()) + " observing keyframes but " + Str(index.size()) + " keypoint indices");
-  if (kfs.size() > msg::kMaxObservations) return reject(Str(kfs.size()) + " observations (limit 64)");
-  for (size_t i = 0; i < kfs.size(); ++i) {
-    KeyframeId kf;
-    if (auto e = OwnIdFromMsg(kfs[i], agent, "observing keyframe", &kf); !e.empty()) return reject("observation " + Str(i) + ": " + e);
+  if (offsets.size() != index.size()) {
+    return reject(Str(offsets.size()) + " observing keyframes but " + Str(index.size()) + " keypoint indices");
+  }
+  if (offsets.size() > msg::kMaxObservations) return reject(Str(offsets.size()) + " observations (limit 64)");
+  const auto ref = static_cast<std::int64_t>(mp.reference_kf.counter());
+  for (size_t i = 0; i < offsets.size(); ++i) {
+    const std::int64_t counter = ref + offsets[i];
+    if (counter <= 0 || counter > static_cast<std::int64_t>(KeyframeId::kCounterMask)) {
+      return reject("observation " + Str(i) + ": keyframe offset " + std::to_string(offsets[i]) + " out of range");
+    }
     if (index[i] >= msg::kMaxKeypoints) return reject("observation " + Str(i) + ": keypoint index " + Str(index[i]) + " out of range");
-    mp.observations.emplace_back(kf, index[i]);
+    mp.observations.emplace_back(KeyframeId::Make(agent, static_cast<std::uint64_t>(counter)), index[i]);
   }
   // No descriptor on the wire: the server takes the point's from its observing keyframes
   // (Map::UpdateMapPointAppearance at registration), so mp.descriptor stays zero.

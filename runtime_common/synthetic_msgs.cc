@@ -67,9 +67,10 @@ msg::KeyframeFull MakeKeyframe(std::uint16_t agent, std::uint64_t index, int num
   kf.pyramid_levels(8);
   kf.pyramid_scale_factor(1.2f);
   RandomFeatures(rng, num_features, &kf.keypoints(), &kf.descriptors());
+  if (num_associations > 0 && num_features > 0) kf.own_mp_base(MapPointId::Make(agent, index * 1000 + 1).packed());
   for (int i = 0; i < num_associations && i < num_features; ++i) {
-    kf.mp_keypoint_index().push_back(static_cast<std::uint16_t>(i));
-    kf.mp_ids().push_back(MapPointId::Make(agent, index * 1000 + i + 1).packed());
+    kf.own_mp_keypoint_index().push_back(static_cast<std::uint16_t>(i));
+    kf.own_mp_offsets().push_back(static_cast<std::uint32_t>(i));
   }
   kf.predecessor_id(index == 0 ? 0 : KeyframeId::Make(agent, index).packed());
   kf.pred_from_this(RandomPose(rng));
@@ -89,11 +90,11 @@ msg::MapPointFull MakeMapPoint(std::uint16_t agent, std::uint64_t index, int num
   mp.protocol_version(msg::kProtocolVersion);
   mp.agent_id(agent);
   mp.id(MapPointId::Make(agent, index + 1).packed());
-  mp.segment_id(MapId::Make(agent, 1).packed());
+  mp.segment_counter(1);
   mp.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
   mp.x_ref(n(rng)); mp.y_ref(n(rng)); mp.z_ref(3.0f + n(rng));
   for (int i = 0; i < num_observations; ++i) {
-    mp.obs_kf_ids().push_back(KeyframeId::Make(agent, index / 100 + 1 + i).packed());
+    mp.obs_kf_offsets().push_back(i);
     mp.obs_keypoint_index().push_back(static_cast<std::uint16_t>(rng() % 1000));
   }
   return mp;

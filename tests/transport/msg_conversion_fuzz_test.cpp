@@ -63,15 +63,31 @@ void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
       break;
     case 11: z.Chance(0.5) ? z.Resize(&m->keypoints()) : z.Resize(&m->descriptors()); break;
     case 12:
-      if (!m->mp_keypoint_index().empty() && z.Chance(0.5)) {
-        auto& i = m->mp_keypoint_index()[z.Index(m->mp_keypoint_index().size())];
+      // Own links (offsets from a base) or links to other agents' points (full ids).
+      if (z.Chance(0.5)) {
+        if (!m->own_mp_keypoint_index().empty() && z.Chance(0.5)) {
+          auto& i = m->own_mp_keypoint_index()[z.Index(m->own_mp_keypoint_index().size())];
+          i = z.Integer(i);
+        } else {
+          z.Chance(0.5) ? z.Resize(&m->own_mp_keypoint_index()) : z.Resize(&m->own_mp_offsets());
+        }
+      } else if (!m->other_mp_keypoint_index().empty() && z.Chance(0.5)) {
+        auto& i = m->other_mp_keypoint_index()[z.Index(m->other_mp_keypoint_index().size())];
         i = z.Integer(i);
       } else {
-        z.Chance(0.5) ? z.Resize(&m->mp_keypoint_index()) : z.Resize(&m->mp_ids());
+        z.Chance(0.5) ? z.Resize(&m->other_mp_keypoint_index()) : z.Resize(&m->other_mp_ids());
       }
       break;
     case 13:
-      if (!m->mp_ids().empty()) { auto& id = m->mp_ids()[z.Index(m->mp_ids().size())]; id = z.Id(id); }
+      if (z.Chance(0.3)) {
+        m->own_mp_base(z.Id(m->own_mp_base()));
+      } else if (!m->own_mp_offsets().empty() && z.Chance(0.5)) {
+        auto& o = m->own_mp_offsets()[z.Index(m->own_mp_offsets().size())];
+        o = z.Integer(o);
+      } else if (!m->other_mp_ids().empty()) {
+        auto& id = m->other_mp_ids()[z.Index(m->other_mp_ids().size())];
+        id = z.Id(id);
+      }
       break;
     case 14: z.Chance(0.5) ? m->predecessor_id(z.Id(m->predecessor_id())) : m->parent_id(z.Id(m->parent_id())); break;
     case 15:
@@ -80,8 +96,10 @@ void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
       if (z.Chance(0.5)) {
         m->keypoints().clear();
         m->descriptors().clear();
-        m->mp_keypoint_index().clear();
-        m->mp_ids().clear();
+        m->own_mp_keypoint_index().clear();
+        m->own_mp_offsets().clear();
+        m->other_mp_keypoint_index().clear();
+        m->other_mp_ids().clear();
       }
       break;
     default: {
@@ -97,12 +115,17 @@ void MutateMapPoint(MsgMutator& z, msg::MapPointFull* m) {
     case 0: m->protocol_version(z.Version()); break;
     case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
     case 2: m->id(z.Id(m->id())); break;
-    case 3: m->segment_id(z.Id(m->segment_id())); break;
+    case 3: m->segment_counter(z.Integer(m->segment_counter())); break;
     case 4: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
     case 5: m->x_ref(z.Realf(m->x_ref())); break;
     case 6: m->z_ref(z.Realf(m->z_ref())); break;
-    case 7: z.Chance(0.5) ? z.Resize(&m->obs_kf_ids()) : z.Resize(&m->obs_keypoint_index()); break;
-    case 8: if (!m->obs_kf_ids().empty()) { auto& id = m->obs_kf_ids()[z.Index(m->obs_kf_ids().size())]; id = z.Id(id); } break;
+    case 7: z.Chance(0.5) ? z.Resize(&m->obs_kf_offsets()) : z.Resize(&m->obs_keypoint_index()); break;
+    case 8:
+      if (!m->obs_kf_offsets().empty()) {
+        auto& o = m->obs_kf_offsets()[z.Index(m->obs_kf_offsets().size())];
+        o = z.Integer(o);
+      }
+      break;
     default: if (!m->obs_keypoint_index().empty()) { auto& i = m->obs_keypoint_index()[0]; i = z.Integer(i); } break;
   }
 }

@@ -115,7 +115,8 @@ TEST(MsgConversion, KeyframeBeyondTheKeypointBoundLosesTheRestAndItsLinks) {
   const msg::KeyframeFull m = ToMsg(kf, KeyframeId::Invalid());
   EXPECT_EQ(m.keypoints().size(), msg::kMaxKeypoints);
   EXPECT_EQ(m.descriptors().size(), msg::kMaxKeypoints);
-  for (auto index : m.mp_keypoint_index()) EXPECT_LT(index, msg::kMaxKeypoints);
+  for (auto index : m.own_mp_keypoint_index()) EXPECT_LT(index, msg::kMaxKeypoints);
+  for (auto index : m.other_mp_keypoint_index()) EXPECT_LT(index, msg::kMaxKeypoints);
   std::string error;
   EXPECT_TRUE(FromMsg(m, nullptr, &error)) << error;
 }
@@ -135,7 +136,7 @@ TEST(MsgConversion, MapPointRoundTrip) {
 
 TEST(MsgConversion, MapPointBeyondTheObservationBoundLosesTheRest) {
   const MapPointData mp = testing::MakeMapPointData(6, 78, msg::kMaxObservations + 10);
-  EXPECT_EQ(ToMsg(mp).obs_kf_ids().size(), msg::kMaxObservations);
+  EXPECT_EQ(ToMsg(mp).obs_kf_offsets().size(), msg::kMaxObservations);
   std::string error;
   EXPECT_TRUE(FromMsg(ToMsg(mp), &error)) << error;
 }

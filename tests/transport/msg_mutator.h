@@ -72,8 +72,8 @@ class MsgMutator {
   }
 
   std::uint16_t Version() {
-    const std::uint16_t versions[] = {0, 1, 3, 0xffff};
-    return versions[rng_() % 4];
+    const std::uint16_t versions[] = {0, 1, 3, 4, 0xffff};
+    return versions[rng_() % 5];
   }
 
   void Pose(msg::Pose* p) {

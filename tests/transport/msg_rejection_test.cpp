@@ -61,7 +61,7 @@ uint64_t Kf(AgentId agent, uint64_t counter) { return KeyframeId::Make(agent, co
 TEST(MsgRejection, Keyframe) {
   auto r = KeyframeRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "keyframe: protocol version 1, expected 4");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "keyframe: protocol version 1, expected 5");
   EXPECT_EQ(r([](auto& m) { m.id(Kf(4, 12)); }), "keyframe: keyframe id 4:12 belongs to agent 4, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.agent_id(5); }), "keyframe: keyframe id 3:12 belongs to agent 3, not to sender 5");
   EXPECT_EQ(r([](auto& m) { m.id(Kf(3, 0)); }), "keyframe: keyframe id 3:0 is invalid");
@@ -106,19 +106,31 @@ TEST(MsgRejection, KeyframeFeaturesAndLinks) {
   EXPECT_EQ(r([](auto& m) { m.keypoints()[12].y_eighth_px(65535); }), "keyframe: keypoint 12 outside the image");
   EXPECT_EQ(r([](auto& m) { m.keypoints()[12].octave(8); }),
             "keyframe: keypoint 12: octave 8 not below pyramid levels 8");
-  EXPECT_EQ(r([](auto& m) { m.mp_ids().pop_back(); }), "keyframe: 34 link indices but 33 link ids");
-  EXPECT_EQ(r([](auto& m) { m.mp_keypoint_index()[2] = 100; }), "keyframe: point link 2: keypoint index 100 out of range");
-  EXPECT_EQ(r([](auto& m) { m.mp_ids()[2] = 0; }), "keyframe: point link 2: map point id 0:0 is invalid");
-  EXPECT_EQ(r([](auto& m) { m.mp_keypoint_index()[2] = m.mp_keypoint_index()[1]; }),
-            "keyframe: point link 2: keypoint linked twice");  // exchange validator
+  // 34 links: 17 to the agent's own points (offsets from a base), 17 to agent 4's (full ids).
+  EXPECT_EQ(r([](auto& m) { m.other_mp_ids().pop_back(); }), "keyframe: 17 link indices but 16 link ids");
+  EXPECT_EQ(r([](auto& m) { m.own_mp_offsets().pop_back(); }), "keyframe: 17 own link indices but 16 offsets");
+  EXPECT_EQ(r([](auto& m) { m.other_mp_keypoint_index()[2] = 100; }),
+            "keyframe: point link 2: keypoint index 100 out of range");
+  EXPECT_EQ(r([](auto& m) { m.own_mp_keypoint_index()[2] = 100; }),
+            "keyframe: own point link 2: keypoint index 100 out of range");
+  EXPECT_EQ(r([](auto& m) { m.other_mp_ids()[2] = 0; }), "keyframe: point link 2: map point id 0:0 is invalid");
+  EXPECT_EQ(r([](auto& m) { m.own_mp_base(MapPointId::Make(4, 1000).packed()); }),
+            "keyframe: point link base id 4:1000 belongs to agent 4, not to sender 3");
+  EXPECT_EQ(r([](auto& m) { m.own_mp_base(0); }), "keyframe: point link base id 0:0 is invalid");
+  EXPECT_EQ(r([](auto& m) { m.own_mp_base(MapPointId::Make(3, MapPointId::kCounterMask - 5).packed()); }),
+            "keyframe: own point link 1: offset 6 out of range");  // counter beyond 48 bits
+  EXPECT_EQ(r([](auto& m) { m.other_mp_keypoint_index()[0] = m.own_mp_keypoint_index()[1]; }),
+            "keyframe: point link 2: keypoint linked twice");  // exchange validator, keypoint order
   // An anchor carries poses only, and must name the keyframe it duplicates.
   EXPECT_EQ(r([](auto& m) { m.anchor_only(true); }), "keyframe: anchor-only keyframe with features or point links");
   EXPECT_EQ(r([](auto& m) {
               m.anchor_only(true);
               m.keypoints().clear();
               m.descriptors().clear();
-              m.mp_keypoint_index().clear();
-              m.mp_ids().clear();
+              m.own_mp_keypoint_index().clear();
+              m.own_mp_offsets().clear();
+              m.other_mp_keypoint_index().clear();
+              m.other_mp_ids().clear();
               m.parent_id(0);
             }),
             "keyframe: anchor-only keyframe without the keyframe it duplicates (parent)");
@@ -151,22 +163,24 @@ TEST(MsgRejection, KeyframePoses) {
 TEST(MsgRejection, MapPoint) {
   auto r = MapPointRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point: protocol version 2, expected 4");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point: protocol version 2, expected 5");
   EXPECT_EQ(r([](auto& m) { m.id(MapPointId::Make(4, 40).packed()); }),
             "map point: map point id 4:40 belongs to agent 4, not to sender 3");
-  EXPECT_EQ(r([](auto& m) { m.segment_id(0); }), "map point: segment id 0:0 is invalid");
+  EXPECT_EQ(r([](auto& m) { m.segment_counter(0); }), "map point: segment counter is 0");
   EXPECT_EQ(r([](auto& m) { m.ref_kf_id(Kf(2, 3)); }),
             "map point: reference keyframe id 2:3 belongs to agent 2, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.y_ref(kNaN); }), "map point: position: non-finite value");
   EXPECT_EQ(r([](auto& m) { m.z_ref(3e7f); }), "map point: position beyond 1e6 m");
-  EXPECT_EQ(r([](auto& m) { m.obs_kf_ids().pop_back(); }), "map point: 4 observing keyframes but 5 keypoint indices");
+  EXPECT_EQ(r([](auto& m) { m.obs_kf_offsets().pop_back(); }), "map point: 4 observing keyframes but 5 keypoint indices");
   EXPECT_EQ(r([](auto& m) {
-              m.obs_kf_ids().resize(65, Kf(3, 3));
+              m.obs_kf_offsets().resize(65, 0);
               m.obs_keypoint_index().resize(65, 1);
             }),
             "map point: 65 observations (limit 64)");
-  EXPECT_EQ(r([](auto& m) { m.obs_kf_ids()[1] = Kf(8, 4); }),
-            "map point: observation 1: observing keyframe id 8:4 belongs to agent 8, not to sender 3");
+  // The reference keyframe is 3:3: an offset of -3 names counter 0.
+  EXPECT_EQ(r([](auto& m) { m.obs_kf_offsets()[1] = -3; }), "map point: observation 1: keyframe offset -3 out of range");
+  EXPECT_EQ(r([](auto& m) { m.ref_kf_id(Kf(3, KeyframeId::kCounterMask)); }),
+            "map point: observation 1: keyframe offset 1 out of range");
   EXPECT_EQ(r([](auto& m) { m.obs_keypoint_index()[1] = 4000; }),
             "map point: observation 1: keypoint index 4000 out of range");
 }
@@ -174,7 +188,7 @@ TEST(MsgRejection, MapPoint) {
 TEST(MsgRejection, Updates) {
   auto k = KeyframeUpdateRejection;
   EXPECT_EQ(k([](auto&) {}), "accepted");
-  EXPECT_EQ(k([](auto& m) { m.protocol_version(0); }), "keyframe update: protocol version 0, expected 4");
+  EXPECT_EQ(k([](auto& m) { m.protocol_version(0); }), "keyframe update: protocol version 0, expected 5");
   EXPECT_EQ(k([](auto& m) { m.id(Kf(1, 20)); }), "keyframe update: keyframe id 1:20 belongs to agent 1, not to sender 3");
   EXPECT_EQ(k([](auto& m) { m.segment_counter(0); }), "keyframe update: segment counter is 0");
   EXPECT_EQ(k([](auto& m) { m.predecessor_id(Kf(2, 19)); }), "keyframe update: predecessor of another agent");
@@ -188,7 +202,7 @@ TEST(MsgRejection, Updates) {
 
   auto p = MapPointUpdateRejection;
   EXPECT_EQ(p([](auto&) {}), "accepted");
-  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected 4");
+  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected 5");
   EXPECT_EQ(p([](auto& m) { m.id(MapPointId::Make(3, 0).packed()); }), "map point update: map point id 3:0 is invalid");
   EXPECT_EQ(p([](auto& m) { m.segment_counter(0); }), "map point update: segment counter is 0");
   EXPECT_EQ(p([](auto& m) { m.ref_kf_id(Kf(9, 4)); }),
@@ -200,7 +214,7 @@ TEST(MsgRejection, Updates) {
 TEST(MsgRejection, ServerMessage) {
   auto r = ServerRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "server message: protocol version 1, expected 4");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "server message: protocol version 1, expected 5");
   EXPECT_EQ(r([](auto& m) { m.agent_id(2); }), "server message: addressed to agent 2, not 1");
   EXPECT_EQ(r([](auto& m) { m.acked_kf_ids().push_back(Kf(2, 5)); }),
             "server message: acked keyframe id 2:5 belongs to agent 2, not to sender 1");

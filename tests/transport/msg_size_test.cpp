@@ -6,6 +6,7 @@
 
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/synthetic_msgs.h"
+#include "slam_core/common/ids.h"
 
 namespace ccm {
 namespace {
@@ -23,14 +24,14 @@ std::uint32_t SerializedSize(typename PubSubT::type& msg, typename PubSubT::type
   return payload.length;
 }
 
-TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout41kB) {
+TEST(MsgSize, FullKeyframeAt1000FeaturesIsAbout40kB) {
   msg::KeyframeFull kf = synthetic::MakeKeyframe(3, 7, 1000, 300);
   msg::KeyframeFull back;
   const auto bytes = SerializedSize<msg::KeyframeFullPubSubType>(kf, &back);
-  // 1000 x (6 B keypoint + 32 B descriptor) + 300 x 10 B associations + header/poses
+  // 1000 x (6 B keypoint + 32 B descriptor) + 300 x 6 B links to own points + header/poses
   // (CCM-SLAM: 20 B per keypoint, ~55 kB).
   EXPECT_GE(bytes, 38000u);
-  EXPECT_LE(bytes, 42000u);
+  EXPECT_LE(bytes, 40500u);
   EXPECT_TRUE(back == kf);
   RecordProperty("keyframe_bytes", static_cast<int>(bytes));
   std::cout << "full keyframe, 1000 features, 300 links: " << bytes << " B\n";
@@ -42,6 +43,21 @@ TEST(MsgSize, KeypointCostsSixBytes) {
   const auto sa = SerializedSize<msg::KeyframeFullPubSubType>(a);
   const auto sb = SerializedSize<msg::KeyframeFullPubSubType>(b);
   EXPECT_EQ(sb - sa, 100u * (6u + 32u));  // keypoint + descriptor per feature
+}
+
+// A link to one of the agent's own points is a keypoint index and a 32-bit offset from the
+// keyframe's base id; one to another agent's point carries the full 64-bit id.
+TEST(MsgSize, OwnPointLinkCostsSixBytesOtherAgentsTen) {
+  msg::KeyframeFull none = synthetic::MakeKeyframe(1, 1, 200, 0);
+  msg::KeyframeFull own = synthetic::MakeKeyframe(1, 1, 200, 100);
+  msg::KeyframeFull other = none;
+  for (std::uint16_t i = 0; i < 100; ++i) {
+    other.other_mp_keypoint_index().push_back(i);
+    other.other_mp_ids().push_back(MapPointId::Make(2, 1000 + i).packed());
+  }
+  const auto s_none = SerializedSize<msg::KeyframeFullPubSubType>(none);
+  EXPECT_EQ(SerializedSize<msg::KeyframeFullPubSubType>(own) - s_none, 100u * 6u);
+  EXPECT_EQ(SerializedSize<msg::KeyframeFullPubSubType>(other) - s_none, 100u * 10u);
 }
 
 TEST(MsgSize, KeyframeUpdateFitsIn148Bytes) {
@@ -66,17 +82,21 @@ TEST(MsgSize, MapPointUpdateIs40BytesWithinA60ByteBudget) {
   EXPECT_TRUE(back == u);
 }
 
-TEST(MsgSize, FullMapPointAbout100Bytes) {
+TEST(MsgSize, FullMapPointAbout80BytesWithFiveObservations) {
   msg::MapPointFull mp = synthetic::MakeMapPoint(4, 11, 5);
   msg::MapPointFull back;
   const auto bytes = SerializedSize<msg::MapPointFullPubSubType>(mp, &back);
   std::cout << "full map point, 5 observations: " << bytes << " B\n";
-  // ids 2 x 2 + 4 x 8 (+ alignment), position 12, 5 x (8 + 2) observations + 2 x 4
-  // sequence lengths; no descriptor (version 3 carried 32 B, version 2 also 20 B of
-  // normal/depth range).
-  EXPECT_LE(bytes, 110u);
-  EXPECT_GE(bytes, 90u);
+  // version + agent 2 x 2, segment counter 4, ids 2 x 8, position 12, 5 x (4 + 2)
+  // observations + 2 x 4 sequence lengths (+ alignment); no descriptor. Version 4: 100 B
+  // (64-bit segment and observing keyframe ids), version 3: 132 B, version 2: 152 B.
+  EXPECT_GE(bytes, 74u);
+  EXPECT_LE(bytes, 80u);
   EXPECT_TRUE(back == mp);
+  // The common case, one observation: 50 B + the 4-byte encapsulation header here (in a
+  // batch 56 B with the next point's alignment; version 4: 64).
+  msg::MapPointFull one = synthetic::MakeMapPoint(4, 11, 1);
+  EXPECT_EQ(SerializedSize<msg::MapPointFullPubSubType>(one), 54u);
 }
 
 TEST(MsgSize, StatusAndServerMessagesRoundTrip) {
