@@ -120,6 +120,8 @@ def main():
         ax.set_xticks(agents)
         ax.set_xlabel("agents")
     axes[0].axhline(0.1, color="k", ls="--", lw=1)
+    # A count axis from 0 up (an all-zero row would otherwise be drawn around -0.04..0.04).
+    axes[1].set_ylim(0, max(1, max(r["keyframes_lost"] + r["keyframes_unacked"] for r in rows) * 1.1))
     axes[0].legend()
     fig.tight_layout()
     fig.savefig(f"{out}/grid.png", dpi=100)
