@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "slam_core/map/drift_path.h"
 #include "slam_core/place_recognition/map_adapter.h"
 
 namespace ccm {
@@ -167,11 +168,14 @@ std::optional<PlaceMatcher::Pending> PlaceMatcher::Verify(const View& q, const V
     // correction that big is an aliased view, e.g. the identical crate one row further,
     // which the neighbours confirm because the whole row repeats. Scale-free (both in map
     // units); a correction within the consistency tolerance of the scene depth always
-    // passes (short paths). Loops with another agent's keyframe have no such path.
-    // The depth test first: most corrections pass it and need no walk along the path.
+    // passes (short paths). With another agent's keyframe the path runs through the
+    // place where the two agents' keyframes already share points (DriftPath); two agents
+    // without one have no bound. The depth test first: most corrections pass it and need
+    // no walk along the path.
     const double moved = (corrected_q.translation() - q.world_from_cam.translation()).norm();
-    if (q.id.agent() == c.id.agent() && moved > options_.consistency_max_position_ratio * q.depth) {
-      if (moved > options_.loop_max_correction_path_ratio * PathBetween(c.id, q.id)) {
+    if (moved > options_.consistency_max_position_ratio * q.depth) {
+      const auto path = DriftPathBetween(c.id, q.id);
+      if (path && moved > options_.loop_max_correction_path_ratio * *path) {
         Bump(&PlaceMatcherStats::implausible_loops);
         return std::nullopt;
       }
@@ -228,20 +232,11 @@ std::optional<PlaceDetection> PlaceMatcher::ConfirmWithNeighbours(const View& q,
   return std::nullopt;
 }
 
-double PlaceMatcher::PathBetween(KeyframeId from, KeyframeId to) const {
+std::optional<double> PlaceMatcher::DriftPathBetween(KeyframeId from, KeyframeId to) const {
   const auto smap = stack_->MapHolding(to);
-  if (!smap) return 0.0;
-  const uint64_t lo = std::min(from.counter(), to.counter()), hi = std::max(from.counter(), to.counter());
+  if (!smap) return std::nullopt;
   std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
-  double path = 0.0;
-  std::optional<Eigen::Vector3d> last;
-  for (const auto& kf : smap->map().keyframes()) {  // sorted by id: one agent's by counter
-    if (kf->id().agent() != to.agent() || kf->id().counter() < lo || kf->id().counter() > hi) continue;
-    const Eigen::Vector3d centre = kf->world_from_cam().translation();
-    if (last) path += (centre - *last).norm();
-    last = centre;
-  }
-  return path;
+  return DriftPath(smap->map(), from, to, smap->map().options().covisibility_min_shared);
 }
 
 bool PlaceMatcher::Agree(const Pending& a, const Pending& b) const {

@@ -97,9 +97,9 @@ class PlaceMatcher {
   std::optional<Pending> Verify(const View& query, const View& candidate, PlaceDetection::Kind kind);
   std::optional<PlaceDetection> ConfirmWithNeighbours(const View& q, const View& c, const Pending& first);
   bool Agree(const Pending& a, const Pending& b) const;
-  /// Path length (map units) through the keyframes of `to`'s agent still in its map, from
-  /// counter `from` to `to` (same agent).
-  double PathBetween(KeyframeId from, KeyframeId to) const;
+  /// DriftPath between two keyframes of `to`'s map (nullopt: no map, or two agents without
+  /// a junction).
+  std::optional<double> DriftPathBetween(KeyframeId from, KeyframeId to) const;
   void Bump(int64_t PlaceMatcherStats::*field, int64_t n = 1) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     stats_.*field += n;

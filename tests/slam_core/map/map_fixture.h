@@ -3,6 +3,7 @@
 
 #include <memory>
 #include <random>
+#include <unordered_map>
 #include <vector>
 
 #include "slam_core/map/map.h"
@@ -22,13 +23,16 @@ inline std::shared_ptr<const CameraModel> TestCamera() {
 class MapBuilder {
  public:
   explicit MapBuilder(int keypoints_per_kf = 600)
-      : map_(MapId::Make(1, 1)), kf_ids_(1), mp_ids_(1), camera_(TestCamera()),
+      : map_(MapId::Make(1, 1)), mp_ids_(1), camera_(TestCamera()),
         pyramid_(std::make_shared<ScalePyramid>(ScalePyramid::Make(8, 1.2))), kps_(keypoints_per_kf) {}
 
   Map& map() { return map_; }
 
   /// Adds a keyframe at x = index metres looking along +z, with random descriptors.
-  KeyframeId AddKeyframe(double x_m) {
+  KeyframeId AddKeyframe(double x_m) { return AddKeyframeAt({x_m, 0, 0}); }
+
+  /// Adds a keyframe of `agent` centred at `centre` looking along +z.
+  KeyframeId AddKeyframeAt(const Eigen::Vector3d& centre, AgentId agent = 1) {
     auto f = std::make_shared<FrameFeatures>();
     for (int i = 0; i < kps_; ++i) {
       Keypoint kp;
@@ -40,9 +44,9 @@ class MapBuilder {
       for (auto& b : d) b = static_cast<uint8_t>(rng_());
       f->descriptors.push_back(d);
     }
-    const KeyframeId id = kf_ids_.Next();
+    const KeyframeId id = kf_ids_.try_emplace(agent, agent).first->second.Next();
     map_.AddKeyframe(std::make_shared<KeyFrame>(id, static_cast<int64_t>(id.counter()) * 50000000, camera_, f,
-                                                pyramid_, SE3(Eigen::Quaterniond::Identity(), {x_m, 0, 0})));
+                                                pyramid_, SE3(Eigen::Quaterniond::Identity(), centre)));
     next_kp_[id] = 0;
     return id;
   }
@@ -61,7 +65,7 @@ class MapBuilder {
 
  private:
   Map map_;
-  IdGenerator<KeyframeId> kf_ids_;
+  std::unordered_map<AgentId, IdGenerator<KeyframeId>> kf_ids_;
   IdGenerator<MapPointId> mp_ids_;
   std::shared_ptr<const CameraModel> camera_;
   std::shared_ptr<const ScalePyramid> pyramid_;
