@@ -70,12 +70,13 @@ std::string LinksFromMsg(const msg::KeyframeFull& m, AgentId agent, size_t num_k
 void LinksToMsg(const KeyframeData& kf, size_t sent_keypoints, msg::KeyframeFull* m) {
   const AgentId agent = kf.id.agent();
   MapPointId base;
+  auto sent = [&](int index) { return index >= 0 && static_cast<size_t>(index) < sent_keypoints; };
   for (const auto& [index, mp] : kf.point_links) {
-    if (mp.agent() == agent && (!base.valid() || mp.counter() < base.counter())) base = mp;
+    if (sent(index) && mp.agent() == agent && (!base.valid() || mp.counter() < base.counter())) base = mp;
   }
   m->own_mp_base(base.packed());
   for (const auto& [index, mp] : kf.point_links) {
-    if (index < 0 || static_cast<size_t>(index) >= sent_keypoints) continue;  // left out with its keypoint
+    if (!sent(index)) continue;  // left out with its keypoint
     const auto keypoint = static_cast<std::uint16_t>(index);
     if (mp.agent() == agent && mp.counter() - base.counter() <= std::numeric_limits<std::uint32_t>::max()) {
       m->own_mp_keypoint_index().push_back(keypoint);
@@ -170,9 +171,9 @@ msg::MapPointFull ToMsg(const MapPointData& mp) {
   for (const auto& [kf, index] : mp.observations) {
     if (m.obs_kf_offsets().size() >= msg::kMaxObservations) break;
     if (index < 0 || index > std::numeric_limits<std::uint16_t>::max()) continue;
-    // Observers of one point are keyframes made close together; one that is not cannot be
-    // expressed and is left out like an out-of-range index (the server links it again
-    // through the keyframe's own links).
+    // Observers of one point are the agent's keyframes made close together. One more than
+    // 2^31 keyframes away from the reference (never within one agent's life), or another
+    // agent's (which receivers would reject), is left out like an out-of-range index.
     const std::int64_t offset = static_cast<std::int64_t>(kf.counter()) - ref;
     if (kf.agent() != mp.id.agent() || offset < std::numeric_limits<std::int32_t>::min() ||
         offset > std::numeric_limits<std::int32_t>::max()) {
