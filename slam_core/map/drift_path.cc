@@ -3,55 +3,63 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <unordered_map>
 
 namespace ccm {
-
 namespace {
 
-// Through one agent's keyframes whose counters lie between a's and b's (either may be gone).
-double SameAgentPath(const Map& map, KeyframeId a, KeyframeId b) {
-  const uint64_t lo = std::min(a.counter(), b.counter()), hi = std::max(a.counter(), b.counter());
-  double path = 0.0;
-  std::optional<Eigen::Vector3d> last;
-  for (const auto& kf : map.keyframes()) {  // sorted by id: one agent's by counter
-    if (kf->id().agent() != a.agent() || kf->id().counter() < lo || kf->id().counter() > hi) continue;
-    const Eigen::Vector3d centre = kf->world_from_cam().translation();
-    if (last) path += (centre - *last).norm();
-    last = centre;
+struct Flown {
+  std::shared_ptr<KeyFrame> kf;
+  double path = 0.0;  ///< distance flown from the agent's first keyframe in the map
+};
+
+// One agent's keyframes in counter order (keyframes() is sorted by id) with the distance
+// flown up to each.
+std::vector<Flown> FlownAlong(const std::vector<std::shared_ptr<KeyFrame>>& keyframes, AgentId agent) {
+  std::vector<Flown> out;
+  for (const auto& kf : keyframes) {
+    if (kf->id().agent() != agent) continue;
+    const double step = out.empty() ? 0.0 : (kf->world_from_cam().translation() -
+                                             out.back().kf->world_from_cam().translation()).norm();
+    out.push_back({kf, (out.empty() ? 0.0 : out.back().path) + step});
   }
-  return path;
+  return out;
+}
+
+// First entry whose keyframe id is not below `id`.
+std::vector<Flown>::const_iterator LowerBound(const std::vector<Flown>& flown, KeyframeId id) {
+  return std::lower_bound(flown.begin(), flown.end(), id,
+                          [](const Flown& f, KeyframeId x) { return f.kf->id() < x; });
+}
+
+// The distance flown up to keyframe `id`, if it is in `flown`.
+std::optional<double> FlownTo(const std::vector<Flown>& flown, KeyframeId id) {
+  const auto it = LowerBound(flown, id);
+  if (it == flown.end() || it->kf->id() != id) return std::nullopt;
+  return it->path;
 }
 
 }  // namespace
 
 std::optional<double> DriftPath(const Map& map, KeyframeId a, KeyframeId b, int min_shared_points) {
-  if (a.agent() == b.agent()) return SameAgentPath(map, a, b);
-  // Distance flown up to each keyframe of the two agents, in counter order (keyframes()
-  // is sorted by id, i.e. per agent by counter).
-  std::unordered_map<KeyframeId, double> flown;
-  std::vector<std::shared_ptr<KeyFrame>> a_side;
-  std::unordered_map<AgentId, std::optional<Eigen::Vector3d>> last;
-  std::unordered_map<AgentId, double> total;
-  for (const auto& kf : map.keyframes()) {
-    const AgentId agent = kf->id().agent();
-    if (agent != a.agent() && agent != b.agent()) continue;
-    const Eigen::Vector3d centre = kf->world_from_cam().translation();
-    if (last[agent]) total[agent] += (centre - *last[agent]).norm();
-    last[agent] = centre;
-    flown[kf->id()] = total[agent];
-    if (agent == a.agent()) a_side.push_back(kf);
+  const auto keyframes = map.keyframes();
+  const std::vector<Flown> along_a = FlownAlong(keyframes, a.agent());
+  if (a.agent() == b.agent()) {
+    // Through the keyframes whose counters lie between the two (either end may be gone).
+    const auto first = LowerBound(along_a, std::min(a, b));
+    const auto end = std::upper_bound(along_a.begin(), along_a.end(), std::max(a, b),
+                                      [](KeyframeId x, const Flown& f) { return x < f.kf->id(); });
+    return first < end ? (end - 1)->path - first->path : 0.0;
   }
-  const auto fa = flown.find(a), fb = flown.find(b);
-  if (fa == flown.end() || fb == flown.end()) return std::nullopt;
+  const std::vector<Flown> along_b = FlownAlong(keyframes, b.agent());
+  const auto to_a = FlownTo(along_a, a), to_b = FlownTo(along_b, b);
+  if (!to_a || !to_b) return std::nullopt;
   double best = std::numeric_limits<double>::infinity();
-  for (const auto& kf : a_side) {
-    const double to_junction = std::abs(flown[kf->id()] - fa->second);
+  for (const Flown& j : along_a) {
+    const double to_junction = std::abs(j.path - *to_a);
     if (to_junction >= best) continue;
-    for (const auto& [other, weight] : kf->covisibility()) {
+    for (const auto& [other, weight] : j.kf->covisibility()) {
       if (other.agent() != b.agent() || weight < min_shared_points) continue;
-      const auto fo = flown.find(other);
-      if (fo != flown.end()) best = std::min(best, to_junction + std::abs(fb->second - fo->second));
+      if (const auto o = FlownTo(along_b, other)) best = std::min(best, to_junction + std::abs(*to_b - *o));
     }
   }
   if (!std::isfinite(best)) return std::nullopt;
