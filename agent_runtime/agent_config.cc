@@ -46,6 +46,7 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("init_fallback_homography_ratio", &vo->init_fallback_homography_ratio);
   r.Get("init_homography_min_parallax_deg", &vo->init_homography_min_parallax_deg);
   r.Get("kf_min_frames", &vo->keyframe.min_frames);
+  r.Get("kf_min_interval_s", &vo->keyframe.min_interval_s);
   r.Get("kf_max_frames", &vo->keyframe.max_frames);
   r.Get("kf_tracked_ratio", &vo->keyframe.tracked_ratio);
   r.Get("kf_urgent_ratio", &vo->keyframe.urgent_ratio);

@@ -7,9 +7,13 @@ std::string KeyframeDecisionOptions::Validate() const {
     return "need 0 <= kf_min_frames <= kf_max_frames and kf_max_frames >= 1";
   }
   if (tracked_ratio <= 0 || tracked_ratio > 1) return "kf_tracked_ratio must be in (0, 1]";
-  if (urgent_ratio < 0 || urgent_ratio > tracked_ratio) return "kf_urgent_ratio must be in [0, kf_tracked_ratio]";
+  if (urgent_ratio < 0 || urgent_ratio > tracked_ratio) {
+    return "kf_urgent_ratio (" + std::to_string(urgent_ratio) + ") must be in [0, kf_tracked_ratio (" +
+           std::to_string(tracked_ratio) + ")]: lower kf_urgent_ratio with kf_tracked_ratio";
+  }
   if (urgent_inliers < 0) return "kf_urgent_inliers must be >= 0";
   if (coverage_ratio < 0 || coverage_ratio > 1) return "kf_coverage_ratio must be in [0, 1]";
+  if (!(min_interval_s >= 0)) return "kf_min_interval_s must be >= 0";
   if (baseline_depth_ratio < 0) return "kf_baseline_depth_ratio must be >= 0";
   if (max_interval_s < 0) return "kf_max_interval_s must be >= 0";
   if (min_inliers < 0) return "kf_min_inliers must be >= 0";
@@ -34,6 +38,8 @@ KeyframeReason DecideKeyframe(const KeyframeDecisionOptions& o, const KeyframeDe
   // About to lose the map: new points now, whatever mapping is doing.
   if (ratio < o.urgent_ratio || in.inliers < o.urgent_inliers) return KeyframeReason::kUrgent;
   if (in.frames_since_kf < o.min_frames) return KeyframeReason::kNone;
+  // 1 ms slack: stamps of a 20 Hz camera 4 frames apart are 0.2 s give or take rounding.
+  if (in.seconds_since_kf + 1e-3 < o.min_interval_s) return KeyframeReason::kNone;
   if (!in.mapper_idle && in.frames_since_kf < o.max_frames) return KeyframeReason::kNone;
   if (ratio < o.tracked_ratio) return KeyframeReason::kTrackedRatio;
   if (o.coverage_ratio > 0 && in.reference_coverage > 0 && in.coverage < o.coverage_ratio * in.reference_coverage) {

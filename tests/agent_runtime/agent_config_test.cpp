@@ -86,5 +86,16 @@ TEST(AgentConfig, LowBandwidthExampleLoads) {
   EXPECT_GT(c.vo.keyframe.max_interval_s, 0.0);
 }
 
+// The keyframe-economy profile (docs/vo.md): spacing, urgent keyframes, wider local BA.
+TEST(AgentConfig, EconomyProfileLoads) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(std::string(CCM_SOURCE_DIR) + "/deploy/config/agent-economy.yaml", &c, &error)) << error;
+  EXPECT_DOUBLE_EQ(c.vo.keyframe.min_interval_s, 0.2);
+  EXPECT_DOUBLE_EQ(c.vo.keyframe.urgent_ratio, 0.7);
+  EXPECT_EQ(c.vo.local_ba_window, 15);
+  EXPECT_EQ(c.vo.keyframe.tracked_ratio, AgentConfig().vo.keyframe.tracked_ratio);
+}
+
 }  // namespace
 }  // namespace ccm::agent

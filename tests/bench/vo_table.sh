@@ -4,7 +4,9 @@
 # absent) and prints one markdown row per run: keyframes created per 100 frames, tracked
 # fraction, ATE (Sim(3), % of path), tracking median/p95 and mapping ms per keyframe.
 # Usage: tests/bench/vo_table.sh [BUILD_DIR] [OUT_DIR] [-- extra ccm_agent args...]
-# Takes ~5 min on 2 cores (hall3 dominates). A benchmark, not a test.
+# Takes ~5 min on 2 cores (hall3 dominates). A benchmark, not a test. SIM=FILE flies another
+# scenario YAML instead of hall3 (e.g. hall3 with another seed: ccm_sim --dump hall3), SKIP_HALL3,
+# SKIP_ROAD, SKIP_REAL and HALL3_AGENTS="0 2" trim the runs.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 BUILD="${1:-$ROOT/build}"
@@ -52,13 +54,13 @@ EOF2
 
 echo "| run | frames | KFs / 100 frames | tracked | ATE | ATE / path | tracking median / p95 [ms] | mapping median / p95 [ms/KF] |"
 echo "|---|---|---|---|---|---|---|---|"
-[[ -z "${SKIP_HALL3:-}" ]] && for a in ${HALL3_AGENTS:-0 1 2}; do run "hall3-agent$a" --sim hall3 --sim-agent "$a"; done
-if [[ -d "$DATA/kitti07_first160" ]]; then
+[[ -z "${SKIP_HALL3:-}" ]] && for a in ${HALL3_AGENTS:-0 1 2}; do run "hall3-agent$a" --sim "${SIM:-hall3}" --sim-agent "$a"; done
+if [[ -z "${SKIP_REAL:-}" && -d "$DATA/kitti07_first160" ]]; then
   export GT_KITTI="$DATA/kitti07_first160/poses_07_first160_kitti.txt" KITTI_TIMES="$DATA/kitti07_first160/times_first160.txt"
   run kitti07-160 --dataset "$DATA/kitti07_first160" --format kitti
   [[ -z "${SKIP_ROAD:-}" ]] && run kitti07-160-road --dataset "$DATA/kitti07_first160" --format kitti --config "$ROOT/deploy/config/agent-road.yaml"
 fi
-if [[ -d "$DATA/ntsd150_euroc" ]]; then
+if [[ -z "${SKIP_REAL:-}" && -d "$DATA/ntsd150_euroc" ]]; then
   unset GT_KITTI KITTI_TIMES
   run ntsd-150 --dataset "$DATA/ntsd150_euroc" --format euroc
 fi

@@ -104,13 +104,39 @@ TEST(KeyframeDecision, MinFramesHoldsBackNonUrgentKeyframes) {
   EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTrackedRatio);
 }
 
+TEST(KeyframeDecision, MinIntervalWaitsAFifthOfASecondUnlessTrackingDropsFast) {
+  KeyframeDecisionOptions o;  // the economy profile (deploy/config/agent-economy.yaml)
+  o.min_interval_s = 0.2;
+  o.urgent_ratio = 0.7;
+  KeyframeDecisionInput in = Steady();
+  in.inliers = 255;  // 85 %: ORB-SLAM's rule wants one, the profile waits for 0.2 s
+  for (in.frames_since_kf = 1; in.frames_since_kf < 4; ++in.frames_since_kf) {
+    in.seconds_since_kf = 0.05 * static_cast<double>(in.frames_since_kf);  // 20 Hz
+    EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone) << in.frames_since_kf;
+  }
+  in.seconds_since_kf = 0.19999999;  // 4 frames at 20 Hz, rounded
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTrackedRatio);
+  in.frames_since_kf = 1;
+  in.seconds_since_kf = 0.85;  // the first frame after 16 dropped ones
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTrackedRatio);
+  in.seconds_since_kf = 0.05;
+  in.inliers = 200;  // 67 %: fast motion, the map runs out; at once
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kUrgent);
+}
+
 TEST(KeyframeDecision, ValidateRejectsInconsistentOptions) {
   EXPECT_EQ(KeyframeDecisionOptions{}.Validate(), "");
   KeyframeDecisionOptions o;
   o.urgent_ratio = 0.95;  // above the tracked ratio
   EXPECT_NE(o.Validate(), "");
+  o.tracked_ratio = 0.6;  // below the urgent ratio: the message says what to change
+  o.urgent_ratio = 0.7;
+  EXPECT_NE(o.Validate().find("kf_urgent_ratio"), std::string::npos);
   o = {};
   o.min_frames = 30;  // above max_frames
+  EXPECT_NE(o.Validate(), "");
+  o = {};
+  o.min_interval_s = -0.1;
   EXPECT_NE(o.Validate(), "");
   o = {};
   o.coverage_ratio = 1.5;
