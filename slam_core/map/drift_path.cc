@@ -9,7 +9,8 @@ namespace {
 
 struct Flown {
   std::shared_ptr<KeyFrame> kf;
-  double path = 0.0;  ///< distance flown from the agent's first keyframe in the map
+  Eigen::Vector3d centre;  ///< read once: each pose read locks the keyframe
+  double path = 0.0;       ///< distance flown from the agent's first keyframe in the map
 };
 
 // One agent's keyframes in counter order (keyframes() is sorted by id) with the distance
@@ -18,9 +19,9 @@ std::vector<Flown> FlownAlong(const std::vector<std::shared_ptr<KeyFrame>>& keyf
   std::vector<Flown> out;
   for (const auto& kf : keyframes) {
     if (kf->id().agent() != agent) continue;
-    const double step = out.empty() ? 0.0 : (kf->world_from_cam().translation() -
-                                             out.back().kf->world_from_cam().translation()).norm();
-    out.push_back({kf, (out.empty() ? 0.0 : out.back().path) + step});
+    const Eigen::Vector3d centre = kf->world_from_cam().translation();
+    const double path = out.empty() ? 0.0 : out.back().path + (centre - out.back().centre).norm();
+    out.push_back({kf, centre, path});
   }
   return out;
 }
