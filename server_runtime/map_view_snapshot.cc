@@ -76,6 +76,17 @@ bool DiffSorted(const std::vector<T>& prev, std::vector<T>* next, uint64_t versi
   return changed;
 }
 
+/// Of each run of equal neighbours in a sorted list, keeps the last.
+template <typename T, typename Same>
+void KeepLastOfEach(std::vector<T>* v, Same same) {
+  size_t out = 0;
+  for (size_t i = 0; i < v->size(); ++i) {
+    if (i + 1 < v->size() && same((*v)[i], (*v)[i + 1])) continue;
+    (*v)[out++] = (*v)[i];
+  }
+  v->resize(out);
+}
+
 void Prune(std::vector<Tombstone>* t, uint64_t horizon) {
   t->erase(std::remove_if(t->begin(), t->end(), [horizon](const Tombstone& x) { return x.version < horizon; }),
            t->end());
@@ -142,10 +153,20 @@ void MapViewModel::CopyMaps(MapViewSnapshot* next, double* max_hold_us) {
                               {static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())}, 0});
     }
   }
-  std::sort(next->keyframes.begin(), next->keyframes.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
-  std::sort(next->points.begin(), next->points.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  // A fusion adds the absorbed map's keyframes and points to the kept map before it drops
+  // the absorbed one, so for a moment both list them. Each id must appear once: a duplicate
+  // left over in the previous snapshot would be diffed as a removal of an id still present,
+  // and a client would drop it for good. Which copy stays does not matter: the absorbed map
+  // leaves the stack right after, and a changed map id goes out as a change.
+  auto by_id = [](const auto& a, const auto& b) { return a.id < b.id; };
+  auto same_id = [](const auto& a, const auto& b) { return a.id == b.id; };
+  std::stable_sort(next->keyframes.begin(), next->keyframes.end(), by_id);
+  KeepLastOfEach(&next->keyframes, same_id);
+  std::stable_sort(next->points.begin(), next->points.end(), by_id);
+  KeepLastOfEach(&next->points, same_id);
   std::sort(next->edges.begin(), next->edges.end(),
             [](const auto& a, const auto& b) { return a.a != b.a ? a.a < b.a : a.b < b.b; });
+  KeepLastOfEach(&next->edges, [](const ViewEdge& a, const ViewEdge& b) { return a.a == b.a && a.b == b.b; });
 }
 
 void MapViewModel::Diff(const MapViewSnapshot& prev, MapViewSnapshot* next, bool* changed) const {

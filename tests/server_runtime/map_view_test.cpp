@@ -88,6 +88,39 @@ TEST(MapView, DeltasCarryOnlyWhatChangedAndReplayToTheFullMap) {
   EXPECT_EQ(client.version, full.version);
 }
 
+// A fusion adds the absorbed map's keyframes and points to the kept map and only then drops
+// the absorbed map: a snapshot taken in between sees them in both. A client following the
+// deltas across that moment must still end with every one of them.
+TEST(MapView, ElementsInTwoMapsDuringAFusionAreNotLostByClients) {
+  testing::ViewBackend b;
+  MapViewModel model(&b.backend(), MapViewOptions{});
+  for (int i = 0; i < 4; ++i) b.AddKeyframe(1, i, 20);
+  b.AddKeyframe(2, 10, 20);
+  model.Refresh();
+  Mirror client;
+  client.Apply(Get(model, "/api/map", {{"since", "0"}}));
+  ASSERT_EQ(client.points.size(), 100u);
+
+  auto absorbed = b.MapOf(1), kept = b.MapOf(2);
+  for (const auto& kf : absorbed->map().keyframes()) kept->map().AddKeyframe(kf);
+  for (const auto& mp : absorbed->map().map_points()) kept->map().AddMapPoint(mp);
+  model.Refresh();  // both maps list agent 1's elements
+  client.Apply(Get(model, "/api/map", {{"since", std::to_string(client.version)}}));
+  b.backend().stack().Repoint(absorbed->id(), kept->id(), Sim3());
+  model.Refresh();  // the absorbed map is gone
+  client.Apply(Get(model, "/api/map", {{"since", std::to_string(client.version)}}));
+
+  Mirror full;
+  full.Apply(Get(model, "/api/map", {{"since", "0"}}));
+  EXPECT_EQ(full.keyframes.size(), 5u);
+  EXPECT_EQ(full.points.size(), 100u);
+  EXPECT_EQ(client.keyframes, full.keyframes);
+  EXPECT_EQ(client.points, full.points);
+  EXPECT_EQ(client.edges, full.edges);
+  const std::string kept_id = IdText(kept->id().packed());
+  for (const auto& [id, k] : client.keyframes) EXPECT_EQ(k[1].get<std::string>(), kept_id) << id;
+}
+
 TEST(MapView, SlowDriftGoesOutOnceItAddsUp) {
   testing::ViewBackend b;
   MapViewModel model(&b.backend(), MapViewOptions{});  // min_change_m 2 mm
