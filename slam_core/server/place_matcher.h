@@ -97,8 +97,8 @@ class PlaceMatcher {
   std::optional<Pending> Verify(const View& query, const View& candidate, PlaceDetection::Kind kind);
   std::optional<PlaceDetection> ConfirmWithNeighbours(const View& q, const View& c, const Pending& first);
   bool Agree(const Pending& a, const Pending& b) const;
-  /// DriftPath between two keyframes of `to`'s map (nullopt: no map, or two agents without
-  /// a junction).
+  /// DriftPath between two keyframes of `to`'s map (nullopt: no map, or two agents no chain
+  /// of junctions joins).
   std::optional<double> DriftPathBetween(KeyframeId from, KeyframeId to) const;
   void Bump(int64_t PlaceMatcherStats::*field, int64_t n = 1) {
     std::lock_guard<std::mutex> lock(stats_mutex_);

@@ -47,6 +47,30 @@ TEST(DriftPath, TwoAgentsMeetThroughTheClosestJunction) {
   EXPECT_NEAR(*DriftPath(t.b.map(), t.a1[1], t.a2[1]), 0.0, 1e-9) << "already joined there";
 }
 
+TEST(DriftPath, AThirdAgentJoinsTwoWhoseMapsNeverMet) {
+  // Agent 3 flies x = 0..4 m on y = 20. It met agent 1 at agent 1's x = 4 (its own x = 0)
+  // and agent 2 at x = 2 (its own x = 4); agents 1 and 2 share nothing.
+  TwoAgents t;
+  std::vector<KeyframeId> a3;
+  for (int i = 0; i < 5; ++i) a3.push_back(t.b.AddKeyframeAt({static_cast<double>(i), 20, 0}, 3));
+  t.Share(t.a1[4], a3[0], 20);
+  t.Share(a3[4], t.a2[2], 20);
+  t.Share(t.a1[0], t.a2[0], 10);  // too weak to be a junction
+  // 4 m along agent 1, 4 m along agent 3, 2 m along agent 2.
+  const auto via_3 = DriftPath(t.b.map(), t.a1[0], t.a2[4]);
+  ASSERT_TRUE(via_3) << "no route found through agent 3";
+  EXPECT_NEAR(*via_3, 10.0, 1e-9);
+  EXPECT_NEAR(*DriftPath(t.b.map(), t.a2[4], t.a1[0]), 10.0, 1e-9) << "symmetric";
+  EXPECT_NEAR(*DriftPath(t.b.map(), t.a1[3], a3[2]), 3.0, 1e-9);
+  // A direct junction of 1 and 2 at their x = 0 is shorter: 4 m along agent 2 only.
+  t.Share(t.a1[0], t.a2[0], 10);
+  EXPECT_NEAR(*DriftPath(t.b.map(), t.a1[0], t.a2[4]), 4.0, 1e-9);
+  // Without agent 3's keyframe at the first junction, agent 1 reaches agent 3 only through
+  // agent 2: 4 m back along agent 1, then 2 m along agent 2.
+  ASSERT_TRUE(t.b.map().EraseKeyframe(a3[0]));
+  EXPECT_NEAR(*DriftPath(t.b.map(), t.a1[4], a3[4]), 6.0, 1e-9);
+}
+
 TEST(DriftPath, WeakLinksAreNoJunction) {
   TwoAgents t;
   t.Share(t.a1[4], t.a2[0], 20);
