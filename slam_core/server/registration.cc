@@ -104,7 +104,6 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   int inliers = 0;
   reg.refined = RefinePose(smap, kf.get(), &inliers);
   if (reg.refined) {
-    smap->MarkSettled({data.id});
     if (reg.placement == RegisteredKeyframe::Placement::kPredecessor) UpdateScale(handler, data, smap, *kf);
   }
   const SE3 final_pose = kf->world_from_cam();

@@ -34,10 +34,13 @@ struct ServerKeyframeInfo {
   SE3 pred_from_cam;        ///< as received, VO scale (updates replace it)
   SE3 parent_from_cam;
   SE3 segment_from_cam;     ///< the agent's VO pose when sent
-  /// Set once the server optimized the keyframe itself (refined against its map at
-  /// registration, local BA, loop correction, global BA): from then on the server's estimate
-  /// wins over the agent's later local-BA updates, which carry no observation the server
-  /// does not have. Until then those updates are the best pose there is.
+  /// Set once the server optimized the keyframe with information of its own (local BA, loop
+  /// correction, global BA): from then on the server's estimate wins over the agent's later
+  /// local-BA updates, which carry no observation the server does not have. Until then those
+  /// updates are the best pose there is, for the keyframe and the points it references. The
+  /// pose-only refinement at registration does not settle: it sees only the agent's own
+  /// links, and freezing its result dropped every later update (the server's map of an agent
+  /// then bent away from the agent's VO before any loop).
   bool settled = false;
 };
 
