@@ -76,17 +76,6 @@ bool DiffSorted(const std::vector<T>& prev, std::vector<T>* next, uint64_t versi
   return changed;
 }
 
-/// Of each run of equal neighbours in a sorted list, keeps the last.
-template <typename T, typename Same>
-void KeepLastOfEach(std::vector<T>* v, Same same) {
-  size_t out = 0;
-  for (size_t i = 0; i < v->size(); ++i) {
-    if (i + 1 < v->size() && same((*v)[i], (*v)[i + 1])) continue;
-    (*v)[out++] = (*v)[i];
-  }
-  v->resize(out);
-}
-
 void Prune(std::vector<Tombstone>* t, uint64_t horizon) {
   t->erase(std::remove_if(t->begin(), t->end(), [horizon](const Tombstone& x) { return x.version < horizon; }),
            t->end());
@@ -158,15 +147,17 @@ void MapViewModel::CopyMaps(MapViewSnapshot* next, double* max_hold_us) {
   // left over in the previous snapshot would be diffed as a removal of an id still present,
   // and a client would drop it for good. Which copy stays does not matter: the absorbed map
   // leaves the stack right after, and a changed map id goes out as a change.
+  auto sort_unique = [](auto* list, auto less, auto same) {
+    std::sort(list->begin(), list->end(), less);
+    list->erase(std::unique(list->begin(), list->end(), same), list->end());
+  };
   auto by_id = [](const auto& a, const auto& b) { return a.id < b.id; };
   auto same_id = [](const auto& a, const auto& b) { return a.id == b.id; };
-  std::stable_sort(next->keyframes.begin(), next->keyframes.end(), by_id);
-  KeepLastOfEach(&next->keyframes, same_id);
-  std::stable_sort(next->points.begin(), next->points.end(), by_id);
-  KeepLastOfEach(&next->points, same_id);
-  std::sort(next->edges.begin(), next->edges.end(),
-            [](const auto& a, const auto& b) { return a.a != b.a ? a.a < b.a : a.b < b.b; });
-  KeepLastOfEach(&next->edges, [](const ViewEdge& a, const ViewEdge& b) { return a.a == b.a && a.b == b.b; });
+  sort_unique(&next->keyframes, by_id, same_id);
+  sort_unique(&next->points, by_id, same_id);
+  sort_unique(
+      &next->edges, [](const ViewEdge& a, const ViewEdge& b) { return a.a != b.a ? a.a < b.a : a.b < b.b; },
+      [](const ViewEdge& a, const ViewEdge& b) { return a.a == b.a && a.b == b.b; });
 }
 
 void MapViewModel::Diff(const MapViewSnapshot& prev, MapViewSnapshot* next, bool* changed) const {

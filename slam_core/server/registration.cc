@@ -103,8 +103,8 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   }
   int inliers = 0;
   reg.refined = RefinePose(smap, kf.get(), &inliers);
-  if (reg.refined) {
-    if (reg.placement == RegisteredKeyframe::Placement::kPredecessor) UpdateScale(handler, data, smap, *kf);
+  if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
+    UpdateScale(handler, data, smap, *kf);
   }
   const SE3 final_pose = kf->world_from_cam();
   stack_->EditHandler(agent_, data.segment, [&](AgentHandler* h) {

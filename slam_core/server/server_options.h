@@ -74,8 +74,9 @@ struct PlaceMatchingOptions {
   double loop_max_correction_angle_deg = 20.0;
   /// ... nor move it by more than this share of the path flown between the loop's candidate
   /// and query keyframes (DriftPath: with two agents, the shortest route through keyframes
-  /// where agents already share points, also through third agents), or the consistency share of the scene depth, if more. True loops
-  /// on hall3 correct 0.2-0.6 % of that path; aliased ones in the repeated scenario 19-100 %.
+  /// where agents already share points, also through third agents), or the consistency
+  /// share of the scene depth, if more. True loops on hall3 correct 0.2-0.6 % of that path;
+  /// aliased ones in the repeated scenario 19-100 %.
   double loop_max_correction_path_ratio = 0.1;
   int min_keyframes_between_loops = 10;  ///< per map, ORB-SLAM's pause after a loop
   std::string Validate() const;
