@@ -65,6 +65,8 @@ class Tracker {
   std::vector<std::shared_ptr<MapPoint>> PointsAround(const KeyFrame& kf) const;
   int TrackLocalMap(VoFrame* f);
   int OptimizeFramePose(VoFrame* f);
+  int OptimizeFramePoseRobustly(VoFrame* f);
+  int RansacFramePose(VoFrame* f);
   KeyframeReason NeedNewKeyframe(const VoFrame& f, int inliers) const;
   double ImageCoverage(const VoFrame& f) const;
   double MedianDepth(const VoFrame& f) const;

@@ -42,8 +42,10 @@ struct VoOptions {
   double local_map_radius_px = 3.0;    ///< local-map search radius at level 0 (x2.5-4 by view angle)
   int min_matches_motion_model = 20;   ///< below: retry with a doubled radius
   /// After a gap in the stream (dropped frames) the constant-velocity prediction covers the
-  /// gap, up to this many of the last frame intervals.
-  double max_motion_extrapolation = 10.0;
+  /// gap, up to this many of the last frame intervals. Covering only part of it is worse
+  /// than a full guess: at 10, 16 dropped frames on hall3 (17 intervals) left 9 inliers of
+  /// 187 matches; at 30, gaps up to 24 frames (1.2 s at 20 Hz) track at once.
+  double max_motion_extrapolation = 30.0;
   int min_inliers_frame = 10;          ///< pose-only optimization inliers to accept a frame pose
   int min_inliers_local_map = 30;      ///< inliers after local-map tracking to count as tracked
   int min_inliers_after_reloc = 50;
