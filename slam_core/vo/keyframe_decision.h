@@ -20,20 +20,19 @@ namespace ccm {
 
 struct KeyframeDecisionOptions {
   int min_frames = 0;            ///< frames since the last KF before a non-urgent one
-  /// Seconds since the last KF before a non-urgent one (0: off). ORB-SLAM's 0.9 ratio alone
-  /// fires every 2-3 frames on a steadily moving camera (the more keyframes, the more
-  /// reference points reach 3 observations, the sooner the ratio drops). 0.2 s with
-  /// urgent_ratio 0.7 and a local BA window of 15 halves the keyframes at equal ATE
-  /// (deploy/config/agent-economy.yaml; docs/vo.md, "Keyframe economy", for why it is not
-  /// the default). In time, not frames: the same at any camera rate, and the first frame
-  /// after dropped frames may take a keyframe at once.
-  double min_interval_s = 0.0;
+  /// Seconds since the last KF before a non-urgent one (0: off, ORB-SLAM's rule). ORB-SLAM's
+  /// 0.9 ratio alone fires every 2-3 frames on a steadily moving camera (the more
+  /// keyframes, the more reference points reach 3 observations, the sooner the ratio
+  /// drops). 0.2 s with urgent_ratio 0.7 and a local BA window of 15 halves the keyframes at
+  /// equal ATE (docs/vo.md, "Keyframe economy"). In time, not frames: the same at any camera
+  /// rate, and the first frame after dropped frames may take a keyframe at once.
+  double min_interval_s = 0.2;
   int max_frames = 20;           ///< after this many frames a KF may interrupt busy mapping
   double tracked_ratio = 0.9;    ///< need a KF when tracking fewer points than this share of the reference's
   /// Below this share: a KF at once, before min_frames / min_interval_s and with mapping busy
   /// (0: off). With a minimum spacing, 0.7 keeps fast motion safe: at 0.5 KITTI (10 Hz,
   /// driving) lost tracking with 6 frames' spacing; at 0.7 it held up to 8.
-  double urgent_ratio = 0.0;
+  double urgent_ratio = 0.7;
   int urgent_inliers = 0;        ///< ... or below this many tracked points (0: off)
   double coverage_ratio = 0.0;   ///< need a KF below this share of the reference KF's image coverage (0: off)
   double baseline_depth_ratio = 0.0;  ///< need a KF above this baseline / median depth (0: off)

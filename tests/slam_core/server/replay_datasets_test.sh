@@ -26,7 +26,7 @@ fi
 grep -q "nope.ccmvoc" "$work/bad2.log" || { echo "the error does not name the missing vocabulary"; cat "$work/bad2.log"; exit 1; }
 # --agent-config: the agents run with a deployed agent's YAML (here a sparse keyframe rule:
 # several times fewer keyframes than the default run above), and a bad file is refused.
-printf 'vo:\n  kf_tracked_ratio: 0.6\n' > "$work/sparse.yaml"
+printf 'vo:\n  kf_tracked_ratio: 0.6\n  kf_urgent_ratio: 0.4\n' > "$work/sparse.yaml"
 "$replay" --dataset "$work/data/agent0" --vocab "$vocab" --agent-config "$work/sparse.yaml" --no-final-ba \
   --out "$work/sparse" > "$work/sparse.log" 2>&1 || { cat "$work/sparse.log"; exit 1; }
 kfs() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["agents"][0]["keyframes_created"])' "$1"; }

@@ -60,7 +60,7 @@ TEST(KeyframeDecision, OptionalCriteriaAreOffByDefault) {
   in.seconds_since_kf = 100.0;
   EXPECT_EQ(DecideKeyframe(KeyframeDecisionOptions{}, in), KeyframeReason::kNone);
   in.reference_points = 32;
-  in.inliers = 30;  // few, but 94 % of the reference's: urgent keyframes are off too
+  in.inliers = 30;  // few, but 94 % of the reference's: no urgent keyframe on the count alone
   EXPECT_EQ(DecideKeyframe(KeyframeDecisionOptions{}, in), KeyframeReason::kNone);
 }
 
@@ -105,9 +105,9 @@ TEST(KeyframeDecision, MinFramesHoldsBackNonUrgentKeyframes) {
 }
 
 TEST(KeyframeDecision, MinIntervalWaitsAFifthOfASecondUnlessTrackingDropsFast) {
-  KeyframeDecisionOptions o;  // the economy profile (deploy/config/agent-economy.yaml)
-  o.min_interval_s = 0.2;
-  o.urgent_ratio = 0.7;
+  KeyframeDecisionOptions o;  // the defaults: 0.2 s spacing, urgent below 70 %
+  ASSERT_DOUBLE_EQ(o.min_interval_s, 0.2);
+  ASSERT_DOUBLE_EQ(o.urgent_ratio, 0.7);
   KeyframeDecisionInput in = Steady();
   in.inliers = 255;  // 85 %: ORB-SLAM's rule wants one, the profile waits for 0.2 s
   for (in.frames_since_kf = 1; in.frames_since_kf < 4; ++in.frames_since_kf) {
