@@ -42,6 +42,7 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("fast_adapt_high_ratio", &vo->orb.adapt_high_ratio);
   r.Get("fast_adapt_low_ratio", &vo->orb.adapt_low_ratio);
   r.Get("init_min_homography_ratio", &vo->init_min_homography_ratio);
+  r.Get("init_count_distant_points", &vo->init_count_distant_points);
   r.Get("init_min_parallax_deg", &vo->init_min_parallax_deg);
   r.Get("init_fallback_homography_ratio", &vo->init_fallback_homography_ratio);
   r.Get("init_homography_min_parallax_deg", &vo->init_homography_min_parallax_deg);

@@ -189,8 +189,8 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
                !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
                camera->width(), camera->height(), CameraTypeName(camera->type()));
-  constexpr int64_t kPlanarHintAttempts = 20;  // KITTI at 10 Hz: ~2 s; New Tsukuba initializes before
-  bool planar_hint_given = false;
+  constexpr int64_t kRoadHintAttempts = 20;  // KITTI at 10 Hz: ~2 s; New Tsukuba initializes before
+  bool road_hint_given = false;
   while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
     auto frame = source->Next();
     if (!frame) break;
@@ -206,13 +206,14 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
     if (last.new_segment) {
       spdlog::warn("frame {}: relocalization kept failing, continuing on a new map segment", frames - 1);
     }
-    // One default does not fit a near-planar scene (a road, a floor seen from above): the
-    // essential matrix needs parallax the homography would not. Say so once.
-    if (!planar_hint_given && last.state == TrackingState::kInitializing &&
-        vo.stats().planar_init_attempts >= kPlanarHintAttempts) {
-      planar_hint_given = true;
-      spdlog::warn("still initializing after {} frames: the view looks planar (road or floor); for road vehicles "
-                   "use deploy/config/agent-road.yaml (vo: init_min_homography_ratio: 0.45)", frames);
+    // One default does not fit a road ahead: its matches are mostly distant or on a plane,
+    // and the default initializer waits for parallax that never comes. Say so once.
+    if (!road_hint_given && last.state == TrackingState::kInitializing &&
+        vo.stats().road_like_init_attempts >= kRoadHintAttempts) {
+      road_hint_given = true;
+      spdlog::warn("still initializing after {} frames: most matches are distant or on a plane (a road ahead?); "
+                   "for road vehicles use deploy/config/agent-road.yaml (vo: init_count_distant_points, "
+                   "init_features 4000)", frames);
     }
     if (Clock::now() - last_progress > std::chrono::duration<double>(o.progress_period_s)) {
       const double el = std::chrono::duration<double>(Clock::now() - start).count();

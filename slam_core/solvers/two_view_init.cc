@@ -35,7 +35,8 @@ double EpipolarDistance(const Eigen::Vector3d& line, const Eigen::Vector3d& x) {
 }
 
 struct MotionCheck {
-  int good = 0;
+  int good = 0;     // triangulated with enough parallax: the initial map points
+  int distant = 0;  // too little parallax to triangulate: consistent, but no map point
   std::vector<std::optional<Eigen::Vector3d>> points;
   double median_parallax_deg = 0.0;
 };
@@ -53,6 +54,9 @@ MotionCheck CheckMotion(const SE3& cam2_from_cam1, const std::vector<Eigen::Vect
   for (size_t i = 0; i < b1.size(); ++i) {
     if (!inliers[i]) continue;
     const TriangulationResult r = TriangulateTwoView(b1[i], b2[i], cam2_from_cam1, tri);
+    // Too little parallax under this motion (its rays agree after its rotation): a distant
+    // point, consistent with the motion but too uncertain to become a map point.
+    check.distant += r.status == TriangulationStatus::kLowParallax;
     if (!r.ok()) continue;
     check.points[i] = r.point;
     parallax.push_back(std::acos(std::clamp(r.cos_parallax, -1.0, 1.0)) * kRadToDeg);
@@ -86,12 +90,17 @@ TwoViewInitResult Reconstruct(const std::vector<SE3>& motions, const std::vector
   result.points_cam1 = best_index >= 0 ? best.points : std::vector<std::optional<Eigen::Vector3d>>(b1.size());
   if (best_index >= 0) result.cam2_from_cam1 = motions[best_index];
   result.num_triangulated = best.good;
+  result.num_distant = best.distant;
   result.median_parallax_deg = best.median_parallax_deg;
-  const int needed = std::max(options.min_triangulated,
-                              static_cast<int>(std::ceil(options.min_triangulated_fraction * num_inliers)));
-  if (best.good < needed) {
+  const int explained_needed = static_cast<int>(std::ceil(options.min_triangulated_fraction * num_inliers));
+  if (best.good < options.min_triangulated) {
     result.status = SolverStatus::kTooFewInliers;
-    result.message = std::to_string(best.good) + " triangulated points < " + std::to_string(needed);
+    result.message = std::to_string(best.good) + " triangulated points < " + std::to_string(options.min_triangulated);
+  } else if (best.good + (options.count_distant_points ? best.distant : 0) < explained_needed) {
+    result.status = SolverStatus::kTooFewInliers;
+    result.message = std::to_string(best.good) + " triangulated" +
+                     (options.count_distant_points ? " + " + std::to_string(best.distant) + " distant" : std::string()) +
+                     " points < " + std::to_string(explained_needed);
   } else if (second_good > options.max_second_best_ratio * best.good) {
     result.status = SolverStatus::kAmbiguous;
     result.message = "two motions explain the data equally well";

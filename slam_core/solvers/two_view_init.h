@@ -38,8 +38,15 @@ struct TwoViewInitOptions {
   /// Points counted as triangulated need cos(parallax) below this (0.99998 ~ 0.36 deg).
   double point_max_cos_parallax = 0.99998;
   int min_triangulated = 50;
-  /// ...and at least this fraction of the chosen model's inliers.
+  /// The motion must explain at least this fraction of the chosen model's inliers by
+  /// triangulated points...
   double min_triangulated_fraction = 0.9;
+  /// ...or, when set, by triangulated plus distant points (too little parallax to
+  /// triangulate: their rays agree after the motion's rotation), as ORB-SLAM counts them.
+  /// Driving forward most matches are distant and only counting them initializes; where
+  /// all points are near (halls, rooms) counting them accepts smaller baselines, whose
+  /// initial maps were worse (docs/vo.md, "Initialization on the road").
+  bool count_distant_points = false;
   /// Homography: the second-best motion must have < this fraction of the best's points.
   double max_second_best_ratio = 0.75;
 
@@ -58,6 +65,7 @@ struct TwoViewInitResult {
   std::vector<std::optional<Eigen::Vector3d>> points_cam1;
   int num_inliers = 0;        // of the chosen model
   int num_triangulated = 0;
+  int num_distant = 0;        // inliers with too little parallax under the chosen motion
   double median_parallax_deg = 0.0;
 
   bool ok() const { return status == SolverStatus::kOk; }

@@ -62,7 +62,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     stats_.keyframes_created += r.new_keyframe;
     stats_.keyframe_reasons = tracker_.keyframe_reasons();
     stats_.segments = tracker_.segments_started() + 1;
-    stats_.planar_init_attempts = tracker_.planar_init_attempts();
+    stats_.road_like_init_attempts = tracker_.road_like_init_attempts();
     stats_.relocalizations = tracker_.relocalizations();
     AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }

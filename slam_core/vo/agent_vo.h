@@ -36,7 +36,7 @@ struct AgentVoStats {
   int64_t keyframes_created = 0;
   KeyframeReasonCounts keyframe_reasons{};  ///< why each keyframe was made
   int segments = 0;
-  int64_t planar_init_attempts = 0;  ///< failed initializations on planar-looking views
+  int64_t road_like_init_attempts = 0;  ///< failed initializations on planar or distant views (road ahead?)
   int64_t relocalizations = 0;       ///< lost -> tracking again in the same segment
   size_t relocalization_index_size = 0;  ///< keyframes in the bag-of-words index
   size_t keyframes_in_map = 0;

@@ -60,6 +60,7 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
   init_options.min_triangulated = o.init_min_map_points;
   init_options.min_parallax_deg = o.init_min_parallax_deg;
   init_options.min_homography_ratio = o.init_min_homography_ratio;
+  init_options.count_distant_points = o.init_count_distant_points;
   solvers::TwoViewInitResult two_view = solvers::InitializeTwoView(b1, b2, init_options);
   if (!two_view.ok() && o.init_fallback_homography_ratio < o.init_min_homography_ratio &&
       two_view.homography_ratio >= o.init_fallback_homography_ratio) {
@@ -68,7 +69,11 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
     two_view = solvers::InitializeTwoView(b1, b2, init_options);
   }
   if (!two_view.ok() || two_view.num_triangulated < o.init_min_map_points) {
-    planar_attempts_ += two_view.homography_ratio >= 0.40 && two_view.homography_ratio < o.init_min_homography_ratio;
+    // A view that looks planar, or whose matches are mostly distant (a road ahead), needs
+    // the road profile to initialize soon.
+    const bool planar = two_view.homography_ratio >= 0.40 && two_view.homography_ratio < o.init_min_homography_ratio;
+    const bool distant = !o.init_count_distant_points && 3 * two_view.num_distant >= two_view.num_inliers;
+    road_like_attempts_ += planar || distant;
     return std::nullopt;
   }
 

@@ -29,9 +29,10 @@ class Initializer {
     search_centres_.clear();
   }
   /// Two-view attempts that failed on a view that looks planar (homography score ratio
-  /// between ORB-SLAM's 0.40 and init_min_homography_ratio): the runtime tells the user
-  /// that a road/floor profile would initialize sooner.
-  int64_t planar_attempts() const { return planar_attempts_; }
+  /// between ORB-SLAM's 0.40 and init_min_homography_ratio) or whose inliers are a third or
+  /// more distant points: the runtime tells the user that the road profile would
+  /// initialize sooner.
+  int64_t road_like_attempts() const { return road_like_attempts_; }
 
  private:
   std::optional<InitializationResult> TryInitialize(const VoFrame& cur);
@@ -39,7 +40,7 @@ class Initializer {
   VoShared* shared_;
   std::optional<VoFrame> reference_;
   std::vector<Eigen::Vector2f> search_centres_;  ///< per reference keypoint
-  int64_t planar_attempts_ = 0;
+  int64_t road_like_attempts_ = 0;
 };
 
 }  // namespace ccm

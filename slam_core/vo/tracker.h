@@ -49,7 +49,7 @@ class Tracker {
   int segments_started() const { return segments_started_; }
   int resets() const { return resets_; }
   int64_t relocalizations() const { return relocalizations_; }
-  int64_t planar_init_attempts() const { return initializer_.planar_attempts(); }
+  int64_t road_like_init_attempts() const { return initializer_.road_like_attempts(); }
   /// Keyframes made per KeyframeReason (index = enum value).
   const KeyframeReasonCounts& keyframe_reasons() const { return keyframe_reasons_; }
 

@@ -13,7 +13,10 @@ namespace ccm {
 
 struct VoOptions {
   OrbExtractorOptions orb;
-  /// Features to extract while initializing (ORB-SLAM doubles them for mono init).
+  /// Features to extract while initializing (ORB-SLAM doubles them for mono init). Two-view
+  /// matching uses only the finest pyramid level (~22 % of them): driving forward at speed
+  /// (KITTI 07, 0.5-0.85 m per frame) 2000 leave 100-180 matches between neighbouring
+  /// frames; the road profile takes 4000 (docs/vo.md, "Initialization on the road").
   int init_num_features = 2000;
   MapOptions map;
   LocalMapBoundOptions bound;
@@ -24,6 +27,10 @@ struct VoOptions {
   int init_min_map_points = 100;     ///< triangulated points needed to accept init
   int init_max_frames = 40;          ///< frames before the reference frame is replaced
   double init_min_parallax_deg = 1.0;  ///< median parallax of the initial points [deg]
+  /// Distant points (too little parallax to triangulate) count as explained by the two-view
+  /// motion (solvers::TwoViewInitOptions::count_distant_points). Off by default: on halls and
+  /// rooms it initialized on smaller baselines, with worse maps; on for roads.
+  bool init_count_distant_points = false;
   /// The homography model is used only above this score ratio S_H / (S_H + S_E).
   /// ORB-SLAM uses 0.40; on the simulator's halls (floor + walls, ~1 deg parallax) the
   /// homography's two decompositions were hard to tell apart and 0.40 picked a motion
@@ -32,8 +39,8 @@ struct VoOptions {
   /// Optional second chance for (near-)planar views when the essential matrix failed:
   /// the homography is accepted from this ratio on, but only with at least
   /// init_homography_min_parallax_deg. Off by default (1.0): on the simulator even 3 deg
-  /// gave a wrong decomposition. Road scenes (KITTI) work with
-  /// init_min_homography_ratio = 0.45 instead.
+  /// gave a wrong decomposition. Road scenes (KITTI) need init_count_distant_points
+  /// instead: their "planar-looking" views are mostly distant points.
   double init_fallback_homography_ratio = 1.0;
   double init_homography_min_parallax_deg = 3.0;
 

@@ -86,6 +86,18 @@ TEST(AgentConfig, LowBandwidthExampleLoads) {
   EXPECT_GT(c.vo.keyframe.max_interval_s, 0.0);
 }
 
+// The road profile (docs/vo.md "Initialization on the road"): what the VO test of later
+// KITTI start frames runs with.
+TEST(AgentConfig, RoadProfileCountsDistantPointsWithMoreFeatures) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_FALSE(c.vo.init_count_distant_points);
+  ASSERT_TRUE(LoadAgentConfig(std::string(CCM_SOURCE_DIR) + "/deploy/config/agent-road.yaml", &c, &error)) << error;
+  EXPECT_TRUE(c.vo.init_count_distant_points);
+  EXPECT_EQ(c.vo.init_num_features, 4000);
+  EXPECT_EQ(c.vo.init_min_homography_ratio, AgentConfig().vo.init_min_homography_ratio);
+}
+
 // ORB-SLAM's keyframe rule (a keyframe whenever fewer than 90 % of the reference's points
 // are tracked, local BA over 10) is three keys away from the defaults (docs/configuration.md).
 TEST(AgentConfig, OrbSlamKeyframeRuleCanBeRestored) {

@@ -105,6 +105,49 @@ TEST(TwoViewInit, GeneralSceneChoosesEssentialAndTriangulates) {
   }
 }
 
+// Driving forward (KITTI): most matches are distant points (buildings, horizon) whose rays
+// stay parallel, a minority is near enough to triangulate. With count_distant_points the
+// distant ones count towards the 90 % of inliers the motion must explain, as in ORB-SLAM;
+// they do not become map points. Counting only triangulated points rejects this view.
+TEST(TwoViewInit, ForwardMotionWithMostlyDistantPointsInitializes) {
+  SceneGenerator gen(56);
+  const SE3 world_from_cam2 = test::MakePose(0, -2, 0, Eigen::Vector3d(0.05, 0.0, 0.8));
+  const SE3 cam2_from_world = world_from_cam2.inverse();
+  test::TwoViewData d;
+  d.world_from_cam2 = world_from_cam2;
+  while (d.bearings1.size() < 500) {
+    const bool distant = d.bearings1.size() % 5 < 3;  // 60 % at 300-2000 m
+    const Eigen::Vector3d p = distant ? gen.PointInView(SE3(), 300.0, 2000.0) : gen.PointInView(SE3(), 4.0, 12.0);
+    Eigen::Vector3d f1, f2;
+    if (!gen.Observe(p, 0.5, &f1) || !gen.Observe(cam2_from_world * p, 0.5, &f2)) continue;
+    d.points_world.push_back(p);
+    d.bearings1.push_back(f1);
+    d.bearings2.push_back(f2);
+    d.is_outlier.push_back(false);
+  }
+  // Distant points fit the rotation's homography too (R_H 0.45 here): the VO's threshold.
+  TwoViewInitOptions o = InitOptions(gen);
+  o.min_homography_ratio = 0.7;
+  const TwoViewInitResult strict = InitializeTwoView(d.bearings1, d.bearings2, o);
+  EXPECT_EQ(strict.status, SolverStatus::kTooFewInliers) << strict.message;
+  EXPECT_GT(strict.num_distant, strict.num_inliers / 3);
+  o.count_distant_points = true;
+  const TwoViewInitResult r = InitializeTwoView(d.bearings1, d.bearings2, o);
+  ASSERT_TRUE(r.ok()) << SolverStatusName(r.status) << ": " << r.message;
+  EXPECT_EQ(r.model, TwoViewModel::kEssential) << "R_H = " << r.homography_ratio;
+  const SE3 gt = world_from_cam2.inverse();
+  EXPECT_LT(test::RotationErrorDeg(r.cam2_from_cam1.rotation(), gt.rotation()), 0.5);
+  EXPECT_LT(test::DirectionErrorDeg(r.cam2_from_cam1.translation(), gt.translation()), 3.0);
+  EXPECT_GT(r.num_triangulated, 100);
+  EXPECT_LT(r.num_triangulated, 0.6 * r.num_inliers);  // the distant majority is not in the map
+  for (size_t i = 0; i < d.points_world.size(); ++i) {
+    if (r.points_cam1[i]) {
+      EXPECT_LT(d.points_world[i].norm(), 100.0) << "a distant point became a map point";
+    }
+  }
+  EXPECT_LT(MeanRelativePointError(r, d), 0.05);
+}
+
 TEST(TwoViewInit, TinyBaselineIsRejectedForLowParallax) {
   SceneGenerator gen(54);
   const SE3 world_from_cam2 = test::MakePose(0, -1, 0, Eigen::Vector3d(0.03, 0, 0));
