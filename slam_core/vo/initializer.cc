@@ -72,7 +72,8 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
     // A view that looks planar, or whose matches are mostly distant (a road ahead), needs
     // the road profile to initialize soon.
     const bool planar = two_view.homography_ratio >= 0.40 && two_view.homography_ratio < o.init_min_homography_ratio;
-    const bool distant = !o.init_count_distant_points && 3 * two_view.num_distant >= two_view.num_inliers;
+    const bool distant =
+        !o.init_count_distant_points && two_view.num_inliers > 0 && 3 * two_view.num_distant >= two_view.num_inliers;
     road_like_attempts_ += planar || distant;
     return std::nullopt;
   }
