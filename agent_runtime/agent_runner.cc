@@ -189,7 +189,6 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
                !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
                camera->width(), camera->height(), CameraTypeName(camera->type()));
-  constexpr int64_t kRoadHintAttempts = 20;  // KITTI at 10 Hz: ~2 s; New Tsukuba initializes before
   bool road_hint_given = false;
   while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
     auto frame = source->Next();
@@ -209,7 +208,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
     // One default does not fit a road ahead: its matches are mostly distant or on a plane,
     // and the default initializer waits for parallax that never comes. Say so once.
     if (!road_hint_given && last.state == TrackingState::kInitializing &&
-        vo.stats().road_like_init_attempts >= kRoadHintAttempts) {
+        vo.stats().road_like_init_attempts >= kRoadProfileHintAttempts) {
       road_hint_given = true;
       spdlog::warn("still initializing after {} frames: most matches are distant or on a plane (a road ahead?); "
                    "for road vehicles use deploy/config/agent-road.yaml (vo: init_count_distant_points, "

@@ -30,6 +30,11 @@ struct KeyframePose {
   SE3 world_from_cam;
 };
 
+/// Road-like failed initializations (AgentVoStats::road_like_init_attempts) after which the
+/// road profile would have initialized sooner: the agent then points to it (KITTI at 10 Hz:
+/// ~2 s; rooms and halls initialize before).
+constexpr int64_t kRoadProfileHintAttempts = 20;
+
 struct AgentVoStats {
   int64_t frames = 0;
   int64_t frames_tracked = 0;

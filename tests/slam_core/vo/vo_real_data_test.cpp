@@ -17,7 +17,7 @@ struct RealRun {
   int64_t frames = 0, first_tracked = -1, tracked_after_init = 0, frames_after_init = 0;
   double ate_m = -1, path_m = 0;
   int segments = 0;
-  int64_t road_like_init_attempts = 0;  // the agent points to the road profile from 20 on
+  int64_t road_like_init_attempts = 0;  // the agent points to the road profile from kRoadProfileHintAttempts on
 };
 
 // skip_frames: start the flight this many frames into the sequence.
@@ -85,7 +85,7 @@ TEST(VoRealData, Kitti07Excerpt) {
   EXPECT_EQ(r.segments, 1);
   ASSERT_GT(r.ate_m, 0);
   EXPECT_LT(r.ate_m, 0.01 * r.path_m) << "ATE " << r.ate_m << " m over " << r.path_m << " m";
-  EXPECT_LT(r.road_like_init_attempts, 20) << "the agent would point to the road profile";
+  EXPECT_LT(r.road_like_init_attempts, kRoadProfileHintAttempts) << "the agent would point to the road profile";
 }
 
 // The same road from later start frames with the road profile (deploy/config/agent-road.yaml:
@@ -110,12 +110,13 @@ TEST(VoRealData, Kitti07ExcerptFromLaterStartFramesWithTheRoadProfile) {
 }
 
 // From frame 25 the default does not initialize, and the agent says why: its views look
-// like a road (mostly distant points), so after 20 such attempts it points to the profile.
+// like a road (mostly distant points), so after kRoadProfileHintAttempts (20) such attempts
+// it points to the profile.
 TEST(VoRealData, Kitti07FromFrame25TheDefaultPointsToTheRoadProfile) {
   const std::string dir = DataDir("kitti07_first160");
   if (dir.empty()) GTEST_SKIP() << "../shared/data/kitti07_first160 not found";
   const RealRun r = RunOn(dir, VoOptions{}, "poses_07_first160_kitti.txt", 25);
-  EXPECT_GE(r.road_like_init_attempts, 20);
+  EXPECT_GE(r.road_like_init_attempts, kRoadProfileHintAttempts);
   if (r.first_tracked >= 0) {
     std::printf("the default initialized from frame 25 (at frame %lld): good, but see docs/vo.md\n",
                 static_cast<long long>(r.first_tracked));
@@ -131,7 +132,7 @@ TEST(VoRealData, NewTsukubaExcerpt) {
   EXPECT_EQ(r.segments, 1);
   ASSERT_GT(r.ate_m, 0);
   EXPECT_LT(r.ate_m, 0.01 * r.path_m) << "ATE " << r.ate_m << " m over " << r.path_m << " m";
-  EXPECT_LT(r.road_like_init_attempts, 20) << "a room is no road";
+  EXPECT_LT(r.road_like_init_attempts, kRoadProfileHintAttempts) << "a room is no road";
 }
 
 }  // namespace
