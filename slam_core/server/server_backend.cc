@@ -239,6 +239,7 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
   e.agent = d.query.agent();
   e.query = d.query;
   e.candidate = d.candidate;
+  e.query_from_candidate = d.query_from_candidate;
   if (const auto m = stack_.MapHolding(d.query)) {
     if (const auto kf = m->map().keyframe(d.query)) e.stamp_ns = kf->stamp_ns();
   }

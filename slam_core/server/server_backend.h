@@ -48,6 +48,9 @@ struct ServerEvent {
   AgentId agent = 0;         ///< whose keyframe caused it
   MapId map, other_map;      ///< fusion: kept, absorbed
   KeyframeId query, candidate;
+  /// Loop / fusion: the verified camera-frame similarity p_query = S * p_candidate (what an
+  /// evaluation compares with ground truth).
+  Sim3 query_from_candidate;
   int keyframes = 0;         ///< size of the map afterwards
   double seconds = 0.0;      ///< how long the step took
   std::string detail;

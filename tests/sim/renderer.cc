@@ -272,19 +272,28 @@ cv::Mat Renderer::Render(const std::vector<SE3>& poses, float gain, std::uint64_
 }
 
 std::optional<RayHit> Renderer::CastRay(const SE3& world_from_cam, const Eigen::Vector2d& uv) const {
-  Eigen::Vector3d b;
-  if (!camera_->Unproject(uv, &b) || !std::isfinite(b.norm())) return std::nullopt;
+  return CastRays(world_from_cam, {uv}).front();
+}
+
+std::vector<std::optional<RayHit>> Renderer::CastRays(const SE3& world_from_cam,
+                                                      const std::vector<Eigen::Vector2d>& uvs) const {
   const FrameSetup f = Setup(world_from_cam, false);
-  Hit hit;
-  const Eigen::Vector3d d = f.R * b.normalized();
-  if (!Trace(f.visible.data(), static_cast<int>(f.visible.size()), d, &hit)) return std::nullopt;
-  RayHit r;
-  r.range_m = hit.t;
-  r.point_w = f.center + hit.t * d;
-  r.depth_m = hit.t * b.normalized().z();
-  r.surface = hit.surface;
-  r.surface_uv_m = Eigen::Vector2d(hit.a, hit.b);
-  return r;
+  std::vector<std::optional<RayHit>> out(uvs.size());
+  for (size_t i = 0; i < uvs.size(); ++i) {
+    Eigen::Vector3d b;
+    if (!camera_->Unproject(uvs[i], &b) || !std::isfinite(b.norm())) continue;
+    Hit hit;
+    const Eigen::Vector3d d = f.R * b.normalized();
+    if (!Trace(f.visible.data(), static_cast<int>(f.visible.size()), d, &hit)) continue;
+    RayHit r;
+    r.range_m = hit.t;
+    r.point_w = f.center + hit.t * d;
+    r.depth_m = hit.t * b.normalized().z();
+    r.surface = hit.surface;
+    r.surface_uv_m = Eigen::Vector2d(hit.a, hit.b);
+    out[i] = r;
+  }
+  return out;
 }
 
 void Renderer::RenderDepth(const SE3& world_from_cam, cv::Mat* depth_m, cv::Mat* surface) const {

@@ -63,6 +63,8 @@ class Renderer {
   /// Exact ray cast through a (sub-)pixel position; nullopt if the pixel has no valid
   /// bearing or the ray hits nothing.
   std::optional<RayHit> CastRay(const SE3& world_from_cam, const Eigen::Vector2d& uv) const;
+  /// CastRay for many pixels of one pose (the per-frame culling done once).
+  std::vector<std::optional<RayHit>> CastRays(const SE3& world_from_cam, const std::vector<Eigen::Vector2d>& uvs) const;
   /// Per-pixel z-depth [m] (CV_32F, 0 = no hit) and surface index (CV_32S, -1 = no hit).
   void RenderDepth(const SE3& world_from_cam, cv::Mat* depth_m, cv::Mat* surface) const;
 

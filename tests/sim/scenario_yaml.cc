@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "tests/sim/scenario.h"
+#include "tests/sim/scene_generator.h"
 
 namespace ccm::sim {
 
@@ -211,11 +212,15 @@ std::optional<Scenario> ParseScenarioYaml(const std::string& text, const std::st
 
 std::optional<Scenario> LoadScenario(const std::string& name_or_path, std::string* error) {
   if (const auto text = BuiltinScenarioYaml(name_or_path)) return ParseScenarioYaml(*text, name_or_path, error);
+  if (const auto text = GeneratedScenarioYaml(name_or_path)) return ParseScenarioYaml(*text, name_or_path, error);
   std::ifstream in(name_or_path);
   if (!in) {
     std::string names;
     for (const auto& [n, d] : BuiltinScenarios()) names += (names.empty() ? "" : ", ") + n;
-    if (error) *error = "'" + name_or_path + "' is neither a built-in scenario (" + names + ") nor a readable file";
+    if (error) {
+      *error = "'" + name_or_path + "' is neither a built-in scenario (" + names +
+               "), a generated one (gen:SEED) nor a readable file";
+    }
     return std::nullopt;
   }
   std::stringstream ss;

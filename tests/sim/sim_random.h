@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 
 namespace ccm::sim {
 
@@ -42,6 +43,18 @@ class Rng {
   }
   /// Log-uniform in [lo, hi], both > 0.
   double LogUniform(double lo, double hi) { return lo * std::exp(Uniform() * std::log(hi / lo)); }
+  /// Index i with probability weights[i] / sum(weights).
+  int Pick(std::initializer_list<double> weights) {
+    double total = 0.0;
+    for (double w : weights) total += w;
+    double x = Uniform() * total;
+    int i = 0;
+    for (double w : weights) {
+      if ((x -= w) < 0.0) return i;
+      ++i;
+    }
+    return i - 1;
+  }
   double Normal() {
     const double u1 = 1.0 - Uniform();
     const double u2 = Uniform();

@@ -129,14 +129,18 @@ class Session {
       const AgentVoStats s = a->vo->stats();
       ar.keyframes_created = s.keyframes_created;
       ar.segments = s.segments;
+      ar.relocalizations = s.relocalizations;
       ar.tracking_ms = s.tracking_ms;
       ar.ground_truth = a->gt;
       for (const KeyframePose& p : a->vo->KeyframeTrajectory()) {
         // The local map also holds keyframes the server shared from other agents.
-        if (p.id.agent() == a->input.id) ar.vo_keyframes.push_back({p.stamp_ns, p.world_from_cam});
+        if (p.id.agent() != a->input.id) continue;
+        ar.vo_keyframes.push_back({p.stamp_ns, p.world_from_cam});
+        ar.vo_segments[p.segment].push_back({p.stamp_ns, p.world_from_cam});
       }
-      std::sort(ar.vo_keyframes.begin(), ar.vo_keyframes.end(),
-                [](const auto& x, const auto& y) { return x.stamp_ns < y.stamp_ns; });
+      const auto by_stamp = [](const auto& x, const auto& y) { return x.stamp_ns < y.stamp_ns; };
+      std::sort(ar.vo_keyframes.begin(), ar.vo_keyframes.end(), by_stamp);
+      for (auto& [segment, t] : ar.vo_segments) std::sort(t.begin(), t.end(), by_stamp);
       ar.server_keyframes = backend_->AgentTrajectory(a->input.id);
       if (!a->input.source->error().empty() && r->error.empty()) r->error = a->input.name + ": " + a->input.source->error();
       r->agents.push_back(std::move(ar));

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -71,8 +72,10 @@ struct ReplayAgentResult {
   int64_t frames = 0, frames_tracked = 0;
   int64_t keyframes_created = 0;
   int segments = 0;
+  int64_t relocalizations = 0;        ///< lost, then tracking again in the same segment
   Trajectory ground_truth;            ///< per frame, where the source has it
   Trajectory vo_keyframes;            ///< the agent's own keyframe trajectory (its VO frame)
+  std::map<MapId, Trajectory> vo_segments;  ///< the same keyframes by VO segment (each its own frame)
   std::vector<ServerKeyframePose> server_keyframes;  ///< as registered on the server
   std::vector<double> tracking_ms;
 };

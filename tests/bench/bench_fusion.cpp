@@ -1,0 +1,157 @@
+// bench_fusion: collaboration over a distribution of generated scenes (docs/server.md,
+// "Fusion benchmark"). Each seed makes a scene (tests/sim/scene_generator.h); its agents fly
+// through the real VO and server back-end (ccm_replay's engine, deterministic), and the run
+// is scored against the simulator's ground truth (fusion_scoring.h). Prints one block per
+// scene as it finishes, then a table per scene and per agent, then the totals against the
+// goals. Seeds 1-20 are the tuning set, 1001-1040 the held-out set (report only).
+//   bench_fusion --set held-out --jobs 2 --out bench-out
+//   bench_fusion --seeds 3,7,12-14 --max-agents 4
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <glog/logging.h>
+#include <nlohmann/json.hpp>
+
+#include "slam_core/place_recognition/vocabulary_io.h"
+#include "tests/bench/fusion_report.h"
+#include "tests/bench/fusion_scoring.h"
+#include "tests/sim/scene_generator.h"
+#include "tests/sim/sim_frame_source.h"
+
+namespace {
+
+using ccm::bench::SceneResult;
+
+bool ParseSeeds(const std::string& text, std::vector<std::uint64_t>* out, std::string* error) {
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      const size_t dash = item.find('-');
+      const std::uint64_t lo = std::stoull(item.substr(0, dash));
+      const std::uint64_t hi = dash == std::string::npos ? lo : std::stoull(item.substr(dash + 1));
+      if (hi < lo || hi - lo > 100000) throw std::out_of_range(item);
+      for (std::uint64_t s = lo; s <= hi; ++s) out->push_back(s);
+    } catch (const std::exception&) {
+      *error = "--seeds: '" + item + "' is not a seed or a range like 1001-1030";
+      return false;
+    }
+  }
+  return !out->empty();
+}
+
+SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& gen,
+                     const ccm::replay::ReplayOptions& base, const std::shared_ptr<const ccm::Vocabulary>& vocab) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SceneResult out;
+  out.scene = ccm::sim::GenerateScene(seed, gen);
+  std::string error;
+  const auto scenario = ccm::sim::ParseScenarioYaml(out.scene.yaml, "gen:" + std::to_string(seed), &error);
+  std::shared_ptr<const ccm::sim::Simulation> sim;
+  if (scenario) sim.reset(ccm::sim::Simulation::Create(*scenario, &error).release());
+  if (!sim) {
+    out.error = error;
+    return out;
+  }
+  const auto truth = ccm::sim::OverlapTruth::Compute(*sim);
+  std::vector<ccm::replay::ReplayAgentInput> inputs;
+  for (int a = 0; a < sim->num_agents(); ++a) {
+    inputs.push_back({sim->agent_name(a), static_cast<ccm::AgentId>(a + 1),
+                      std::make_unique<ccm::sim::SimFrameSource>(sim, a)});
+  }
+  ccm::ServerBackend backend(vocab, base.BackendOptions());
+  const ccm::replay::ReplayResult result = ccm::replay::RunReplay(std::move(inputs), base, &backend);
+  if (!result.error.empty()) {
+    out.error = result.error;
+    return out;
+  }
+  out.score = ccm::bench::ScoreScene(*sim, truth, result);
+  out.frames = 0;
+  for (const auto& a : result.agents) out.frames += a.frames;
+  out.place_recognition_ms = result.stats.place.queries
+                                 ? result.stats.place.total_query_ms / static_cast<double>(result.stats.place.queries)
+                                 : 0.0;
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_minloglevel = 2;
+  CLI::App app{"bench_fusion: map fusion, loops and VO over generated multi-agent scenes, scored on ground truth"};
+  std::string seeds_text, set, out_dir, vocab_path = CCM_DEFAULT_VOCABULARY;
+  int jobs = 1;
+  bool no_sharing = false;
+  ccm::sim::SceneGeneratorOptions gen;
+  app.add_option("--seeds", seeds_text, "seeds, e.g. 1-20 or 3,7,1001-1005");
+  app.add_option("--set", set, "tune (seeds 1-20) or held-out (seeds 1001-1040)")->check(CLI::IsMember({"tune", "held-out"}));
+  app.add_option("--jobs", jobs, "scenes replayed at once (one thread each)")->capture_default_str()->check(CLI::Range(1, 16));
+  app.add_option("--max-agents", gen.max_agents, "at most this many agents per scene (2-8)")->capture_default_str();
+  app.add_option("--min-seconds", gen.min_duration_s, "shortest flight [s]")->capture_default_str();
+  app.add_option("--max-seconds", gen.max_duration_s, "longest flight [s]")->capture_default_str();
+  app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();
+  app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
+  app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
+  CLI11_PARSE(app, argc, argv);
+
+  std::vector<std::uint64_t> seeds;
+  std::string error;
+  if (set == "tune") seeds_text = "1-20";
+  if (set == "held-out") seeds_text = "1001-1040";
+  if (seeds_text.empty()) {
+    std::fprintf(stderr, "bench_fusion: error: give --seeds or --set\n");
+    return 2;
+  }
+  if (!ParseSeeds(seeds_text, &seeds, &error) || !(error = gen.Validate()).empty()) {
+    std::fprintf(stderr, "bench_fusion: error: %s\n", error.c_str());
+    return 2;
+  }
+  auto loaded = ccm::LoadVocabularyFile(vocab_path, &error);
+  if (!loaded) {
+    std::fprintf(stderr, "bench_fusion: error: %s\n", error.c_str());
+    return 2;
+  }
+  const auto vocab = std::make_shared<const ccm::Vocabulary>(std::move(*loaded));
+  ccm::replay::ReplayOptions replay;
+  replay.agent_vocabulary = vocab;
+  replay.map_sharing = !no_sharing;
+  replay.progress_period_s = 1e9;
+  std::ofstream jsonl;
+  if (!out_dir.empty()) {
+    std::filesystem::create_directories(out_dir);
+    jsonl.open(out_dir + "/results.jsonl", std::ios::app);
+  }
+  std::printf("bench_fusion: %zu scenes, %d job(s), vocabulary %s (%zu words), map sharing %s\n", seeds.size(), jobs,
+              vocab_path.c_str(), vocab->num_words(), no_sharing ? "off" : "on");
+  std::fflush(stdout);
+
+  std::vector<SceneResult> results(seeds.size());
+  std::atomic<size_t> next{0};
+  std::mutex print_mutex;  // leaf: printing and the jsonl file
+  std::vector<std::thread> workers;
+  for (int j = 0; j < jobs; ++j) {
+    workers.emplace_back([&] {
+      for (size_t i; (i = next++) < seeds.size();) {
+        results[i] = RunScene(seeds[i], gen, replay, vocab);
+        std::lock_guard<std::mutex> lock(print_mutex);
+        std::fputs(ccm::bench::SceneBlock(results[i]).c_str(), stdout);
+        std::fflush(stdout);
+        if (jsonl.is_open()) jsonl << ccm::bench::SceneJson(results[i]).dump() << "\n" << std::flush;
+      }
+    });
+  }
+  for (auto& w : workers) w.join();
+  const std::string report = ccm::bench::Report(results);
+  std::fputs(report.c_str(), stdout);
+  if (!out_dir.empty()) std::ofstream(out_dir + "/report.md") << report;
+  return 0;
+}

@@ -1,0 +1,29 @@
+// bench_fusion's output: a block per scene as it finishes, a JSON line per scene (for
+// scripts), and the final markdown report: a table per scene, a table per agent, recall by
+// overlap kind, and the totals next to issue 27's goals.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/bench/fusion_scoring.h"
+#include "tests/sim/scene_generator.h"
+
+namespace ccm::bench {
+
+struct SceneResult {
+  sim::GeneratedScene scene;
+  SceneScore score;
+  int64_t frames = 0;
+  double wall_s = 0.0;
+  double place_recognition_ms = 0.0;  ///< mean per query (database + verification)
+  std::string error;                  ///< the scene could not be replayed
+};
+
+std::string SceneBlock(const SceneResult& r);
+nlohmann::json SceneJson(const SceneResult& r);
+std::string Report(const std::vector<SceneResult>& results);
+
+}  // namespace ccm::bench

@@ -1,0 +1,179 @@
+#include "tests/bench/fusion_scoring.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <numeric>
+#include <optional>
+
+#include <Eigen/Geometry>
+
+#include "slam_core/eval/evaluator.h"
+#include "slam_core/eval/metrics.h"
+
+namespace ccm::bench {
+namespace {
+
+double Seconds(const sim::Simulation& sim, int64_t stamp_ns) {
+  return static_cast<double>(stamp_ns - sim.scenario().start_stamp_ns) * 1e-9;
+}
+
+int AgentIndex(const replay::ReplayResult& r, AgentId id) {
+  for (size_t i = 0; i < r.agents.size(); ++i) {
+    if (r.agents[i].id == id) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::optional<int64_t> KeyframeStamp(const replay::ReplayResult& r, KeyframeId kf) {
+  const int a = AgentIndex(r, kf.agent());
+  if (a < 0) return std::nullopt;
+  for (const ServerKeyframePose& p : r.agents[a].server_keyframes) {
+    if (p.id == kf) return p.stamp_ns;
+  }
+  return std::nullopt;
+}
+
+DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth, const replay::ReplayResult& r,
+                     const ServerEvent& e) {
+  DetectionCheck c;
+  c.event = e;
+  const int qa = AgentIndex(r, e.query.agent()), ca = AgentIndex(r, e.candidate.agent());
+  const auto qs = KeyframeStamp(r, e.query), cs = KeyframeStamp(r, e.candidate);
+  if (qa < 0 || ca < 0 || !qs || !cs) {
+    c.wrong = true;  // cannot be placed: counted, so that it is looked at
+    return c;
+  }
+  const double tq = Seconds(sim, *qs), tc = Seconds(sim, *cs);
+  const SE3 gq = sim.trajectory(qa).WorldFromCam(tq), gc = sim.trajectory(ca).WorldFromCam(tc);
+  const SE3 q_from_c = gq.inverse() * gc;
+  const Eigen::Matrix3d dR = e.query_from_candidate.rotation().toRotationMatrix().transpose() *
+                             q_from_c.rotation().toRotationMatrix();
+  c.rotation_error_deg = Eigen::AngleAxisd(dR).angle() * 180.0 / M_PI;
+  const Eigen::Vector3d t_true = q_from_c.translation(), t_est = e.query_from_candidate.translation();
+  if (t_true.norm() >= 0.3 && t_est.norm() > 1e-9) {
+    const double cosine = std::clamp(t_true.normalized().dot(t_est.normalized()), -1.0, 1.0);
+    c.direction_error_deg = std::acos(cosine) * 180.0 / M_PI;
+  }
+  const sim::ViewOverlap o = truth.Compare(truth.Sample(sim, gq, tq), truth.Sample(sim, gc, tc));
+  c.view_share = std::min(o.share_a, o.share_b);
+  c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.view_share < 0.05;
+  return c;
+}
+
+// RMSE over segments, each aligned on its own (a new segment starts a new VO frame).
+double SegmentedAte(const replay::ReplayAgentResult& a) {
+  double sum_sq = 0.0;
+  size_t n = 0;
+  for (const auto& [segment, t] : a.vo_segments) {
+    if (t.size() < 3) continue;
+    EvalReport rep;
+    std::string error;
+    if (!Evaluate({{a.name, a.ground_truth, t}}, EvalOptions{}, &rep, &error)) continue;
+    sum_sq += rep.agents[0].ate_m.rmse * rep.agents[0].ate_m.rmse * static_cast<double>(rep.agents[0].matched);
+    n += rep.agents[0].matched;
+  }
+  return n ? std::sqrt(sum_sq / static_cast<double>(n)) : -1.0;
+}
+
+MapScore ScoreMap(const MapSummary& m, const replay::ReplayResult& r, const std::vector<AgentScore>& agents) {
+  MapScore s;
+  s.id = m.id;
+  s.keyframes = m.keyframes + m.anchored;
+  std::vector<AgentInput> joint;
+  double standalone = 0.0;
+  for (size_t i = 0; i < r.agents.size(); ++i) {
+    Trajectory in_map;
+    for (const ServerKeyframePose& p : r.agents[i].server_keyframes) {
+      if (p.map == m.id) in_map.push_back({p.stamp_ns, p.world_from_cam});
+    }
+    if (in_map.size() < 3) continue;
+    s.agents.push_back(static_cast<int>(i));
+    joint.push_back({r.agents[i].name, r.agents[i].ground_truth, in_map});
+    standalone += agents[i].vo_ate_m;
+  }
+  if (joint.empty()) return s;
+  s.mean_standalone_ate_m = standalone / static_cast<double>(joint.size());
+  EvalReport rep;
+  std::string error;
+  if (!Evaluate(joint, EvalOptions{}, &rep, &error)) return s;
+  s.joint_ate_m = rep.joint.ate_m.rmse;
+  double lo = 1e300, hi = 0.0;
+  for (const AgentResult& a : rep.agents) {
+    lo = std::min(lo, a.gt_from_est.scale());
+    hi = std::max(hi, a.gt_from_est.scale());
+  }
+  s.scale_spread = hi / lo - 1.0;
+  return s;
+}
+
+}  // namespace
+
+SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const replay::ReplayResult& r) {
+  SceneScore s;
+  // Agents' VO.
+  for (size_t i = 0; i < r.agents.size(); ++i) {
+    const replay::ReplayAgentResult& a = r.agents[i];
+    AgentScore as;
+    as.name = a.name;
+    as.path_m = truth.agents()[i].path_m;
+    as.tracked_share = a.frames ? static_cast<double>(a.frames_tracked) / static_cast<double>(a.frames) : 0.0;
+    as.segments = a.segments;
+    as.relocalizations = a.relocalizations;
+    as.vo_ate_m = SegmentedAte(a);
+    if (as.vo_ate_m >= 0 && as.path_m > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / as.path_m;
+    as.revisits = truth.agents()[i].revisits;
+    s.agents.push_back(as);
+  }
+  // Fusions and loops, in the order the server made them; which pairs they joined.
+  std::map<MapId, MapId> parent;
+  const std::function<MapId(MapId)> root = [&](MapId m) {
+    auto it = parent.find(m);
+    if (it == parent.end() || it->second == m) return m;
+    return it->second = root(it->second);
+  };
+  std::map<int, std::vector<MapId>> agent_maps;
+  for (const ServerEvent& e : r.events) {
+    if (e.kind == ServerEvent::Kind::kNewMap) agent_maps[AgentIndex(r, e.agent)].push_back(e.map);
+  }
+  for (const sim::PairTruth& p : truth.pairs()) s.pairs.push_back({p});
+  for (const ServerEvent& e : r.events) {
+    if (e.kind == ServerEvent::Kind::kLoop) {
+      s.loops.push_back(Check(sim, truth, r, e));
+      const int a = AgentIndex(r, e.agent);
+      if (a >= 0) ++s.agents[a].loops;
+      continue;
+    }
+    if (e.kind != ServerEvent::Kind::kFusion) continue;
+    s.fusions.push_back(Check(sim, truth, r, e));
+    parent[root(e.other_map)] = root(e.map);
+    for (PairScore& p : s.pairs) {
+      if (p.fused) continue;
+      for (const MapId ma : agent_maps[p.truth.a]) {
+        for (const MapId mb : agent_maps[p.truth.b]) p.fused = p.fused || root(ma) == root(mb);
+      }
+      if (!p.fused) continue;
+      p.fused_at_s = Seconds(sim, e.stamp_ns);
+      if (p.truth.first_s >= 0) p.seconds_to_fusion = std::max(0.0, p.fused_at_s - p.truth.first_s);
+    }
+  }
+  for (const PairScore& p : s.pairs) {
+    if (!p.truth.qualifies) continue;
+    ++s.qualifying_pairs;
+    s.qualifying_fused += p.fused;
+  }
+  for (const DetectionCheck& c : s.fusions) s.false_fusions += c.wrong;
+  for (const DetectionCheck& c : s.loops) s.false_loops += c.wrong;
+  for (const MapSummary& m : r.maps) {
+    MapScore ms = ScoreMap(m, r, s.agents);
+    if (ms.agents.size() >= 2 && ms.joint_ate_m >= 0 && ms.mean_standalone_ate_m > 0) {
+      s.worst_joint_ratio = std::max(s.worst_joint_ratio, ms.joint_ate_m / ms.mean_standalone_ate_m);
+      s.worst_scale_spread = std::max(s.worst_scale_spread, ms.scale_spread);
+    }
+    s.maps.push_back(std::move(ms));
+  }
+  return s;
+}
+
+}  // namespace ccm::bench

@@ -1,0 +1,69 @@
+// Scores a collaborative replay of a simulated scene against the simulator's ground truth:
+// which overlapping pairs of agents fused and how long after they first saw a common place,
+// whether each fusion and loop was right (its verified relative pose against the true one),
+// each fused map's joint ATE against its agents' own VO, the scale agreement of the agents'
+// parts, and every agent's VO. Used by bench_fusion (a table over many generated scenes) and
+// by tests that check one scene.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "tests/sim/overlap_truth.h"
+#include "tests/sim/simulation.h"
+#include "tools/replay/replay_session.h"
+
+namespace ccm::bench {
+
+struct PairScore {
+  sim::PairTruth truth;
+  bool fused = false;
+  double fused_at_s = -1.0;        ///< flight time of the fusion that joined them (data time)
+  double seconds_to_fusion = -1.0; ///< from the first qualifying overlap (>= 0)
+};
+
+/// A loop or fusion compared with the ground-truth relative pose of its two keyframes.
+struct DetectionCheck {
+  ServerEvent event;
+  double rotation_error_deg = 0.0;
+  double direction_error_deg = 0.0;  ///< of the translation, when the keyframes are >= 0.3 m apart
+  double view_share = 0.0;           ///< ground-truth co-visibility of the two keyframes (min share)
+  bool wrong = false;                ///< rotation > 10 deg, direction > 30 deg, or nothing in common
+};
+
+struct MapScore {
+  MapId id;
+  std::vector<int> agents;           ///< agent indices with keyframes in it
+  size_t keyframes = 0;
+  double joint_ate_m = -1.0;         ///< all its keyframes, one Sim(3)
+  double mean_standalone_ate_m = -1.0;  ///< its agents' own VO, mean of RMSEs
+  double scale_spread = 0.0;         ///< max / min of the agents' own alignment scales, minus 1
+};
+
+struct AgentScore {
+  std::string name;
+  double path_m = 0.0;
+  double tracked_share = 0.0;
+  int segments = 0;
+  int64_t relocalizations = 0;
+  double vo_ate_m = -1.0;            ///< VO keyframes, each segment aligned on its own
+  double vo_ate_path_pct = -1.0;     ///< vo_ate_m / path * 100
+  bool revisits = false;
+  int loops = 0;                     ///< loops the server closed on its keyframes
+};
+
+struct SceneScore {
+  std::vector<PairScore> pairs;
+  std::vector<DetectionCheck> fusions, loops;
+  std::vector<MapScore> maps;
+  std::vector<AgentScore> agents;
+  int qualifying_pairs = 0, qualifying_fused = 0;
+  int false_fusions = 0, false_loops = 0;
+  /// Worst fused map: joint ATE / mean standalone ATE (-1 without a fused map).
+  double worst_joint_ratio = -1.0;
+  double worst_scale_spread = 0.0;
+};
+
+SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const replay::ReplayResult& result);
+
+}  // namespace ccm::bench
