@@ -1,8 +1,10 @@
-// What ccm_server leaves behind when it stops with --out DIR: each agent's keyframe
-// trajectory in the final map's frame (agent<id>_keyframes.tum), summary.json (maps, fusion
-// and loop events with times, keyframe counts, timings; written by the replay tool's
-// report code so offline and live runs read the same), map.ply, map_top.png, and
-// server.json (the communication module's per-agent link counters and topic traffic).
+// What ccm_server leaves behind when it stops with --out DIR, for every map that remains (an
+// agent that never fused has a map of its own): map<k>_agent<id>_keyframes.tum per map and
+// agent, agent<id>_keyframes.tum for the largest map, summary.json (every map with its agents,
+// fusion and loop events with times, place recognition's counts, keyframe counts, timings;
+// written by the replay tool's report code so offline and live runs read the same), map.ply
+// (largest) and map<k>.ply, map_top.png (a panel per map), and server.json (the communication
+// module's per-agent link counters and topic traffic).
 #pragma once
 
 #include <string>

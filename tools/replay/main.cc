@@ -1,15 +1,15 @@
 // ccm_replay: offline collaborative SLAM of recorded multi-robot flights. Runs each agent's
 // onboard VO and the server back-end in one process (the real system's code paths minus
-// DDS), then writes each agent's keyframe trajectory in the final map's frame (TUM),
-// summary.json (maps, fusions and loops with times, keyframe counts, timings, accuracy when
-// ground truth is known), the fused map (PLY) and a PNG top view. See docs/server.md.
+// DDS), then writes every map that remains: each agent's keyframe trajectory per map (TUM),
+// summary.json (maps with their agents, fusions and loops with times, place recognition,
+// keyframe counts, timings, accuracy per map when ground truth is known), the maps (PLY) and
+// a PNG top view with a panel per map. See docs/server.md.
 #include <glog/logging.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
-#include <filesystem>
 #include <iostream>
 #include <mutex>
 #include <thread>
@@ -22,6 +22,7 @@
 #include "tests/sim/sim_frame_source.h"
 #include "tests/sim/simulation.h"
 #include "tools/replay/batch_recording.h"
+#include "tools/replay/dataset_spec.h"
 #include "tools/replay/replay_report.h"
 
 #ifndef CCM_DEFAULT_VOCABULARY
@@ -34,6 +35,7 @@ struct Args {
   std::string sim;
   std::vector<int> sim_agents;
   std::vector<std::string> datasets;
+  std::vector<std::string> ground_truth;  // one for all datasets, or one per dataset
   std::string format = "auto";
   // The installed copy first (install_paths.h), then the build tree's.
   std::string vocabulary = ccm::rt::FindDataFile(ccm::rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
@@ -100,18 +102,33 @@ bool OpenInputs(const Args& a, std::vector<ccm::replay::ReplayAgentInput>* input
                          std::make_unique<ccm::sim::SimFrameSource>(sim, i)});
     }
   }
-  for (const std::string& d : a.datasets) {
-    const auto format = ccm::ParseDatasetFormat(a.format);
+  if (a.ground_truth.size() > 1 && a.ground_truth.size() != a.datasets.size()) {
+    *error = "--ground-truth: give one file for every --dataset, or one per --dataset (" +
+             std::to_string(a.datasets.size()) + "), not " + std::to_string(a.ground_truth.size());
+    return false;
+  }
+  for (size_t i = 0; i < a.datasets.size(); ++i) {
+    const auto spec = ccm::replay::ParseDatasetSpec(a.datasets[i], error);
+    if (!spec) return false;
+    ccm::DatasetOptions options;
+    options.path = spec->path;
+    options.format = *ccm::ParseDatasetFormat(a.format);
+    if (!a.ground_truth.empty()) options.ground_truth_path = a.ground_truth[a.ground_truth.size() == 1 ? 0 : i];
     ccm::IoStatus status;
-    auto source = ccm::OpenDataset(d, *format, &status);
+    auto source = ccm::OpenDataset(options, &status);
+    if (source && spec->range) source = ccm::LimitFrames(std::move(source), *spec->range, &status);
     if (!source) {
-      *error = status.message();
+      *error = spec->range ? spec->path + ": " + status.message() : status.message();
       return false;
     }
-    const std::string name = std::filesystem::path(d).filename().string();
-    inputs->push_back({name.empty() ? "agent" + std::to_string(inputs->size()) : name,
+    inputs->push_back({spec->name.empty() ? "agent" + std::to_string(inputs->size()) : spec->name,
                        static_cast<ccm::AgentId>(inputs->size() + 1), std::move(source)});
   }
+  // Outputs are named after the agents: one folder given twice must not overwrite itself.
+  std::vector<std::string> names;
+  for (const auto& in : *inputs) names.push_back(in.name);
+  ccm::replay::MakeNamesUnique(&names);
+  for (size_t i = 0; i < inputs->size(); ++i) (*inputs)[i].name = names[i];
   if (inputs->empty()) *error = "nothing to replay: give --sim SCENARIO or --dataset DIR (repeat per agent)";
   return !inputs->empty();
 }
@@ -130,6 +147,36 @@ void PrintSummary(const ccm::replay::ReplayResult& r, const ccm::replay::ReplayE
               ev.maps, static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops),
               static_cast<long long>(r.stats.keyframes_removed), static_cast<long long>(r.stats.global_ba_applied),
               static_cast<long long>(r.stats.global_ba_aborted));
+  const ccm::PlaceMatcherStats& p = r.stats.place;
+  std::string stopped;
+  for (int s = 0; s < ccm::kNumVerificationStages; ++s) {
+    if (p.fusion_stopped_at[s] == 0) continue;
+    stopped += std::string(stopped.empty() ? "" : ", ") +
+               ccm::VerificationStageName(static_cast<ccm::VerificationStage>(s)) + " " +
+               std::to_string(p.fusion_stopped_at[s]);
+  }
+  std::printf("place recognition: %lld queries, %lld fusion / %lld loop candidates, %lld verified, %lld inconsistent, "
+              "%lld fusions / %lld loops accepted; fusion candidates stopped at: %s\n",
+              static_cast<long long>(p.queries), static_cast<long long>(p.match_candidates),
+              static_cast<long long>(p.loop_candidates), static_cast<long long>(p.verified),
+              static_cast<long long>(p.inconsistent), static_cast<long long>(p.accepted_fusions),
+              static_cast<long long>(p.accepted_loops), stopped.empty() ? "none" : stopped.c_str());
+  // Every map with its agents: an agent that never fused shows up in a map of its own.
+  for (const auto& ms : ev.map_scores) {
+    std::string agents;
+    for (const auto& part : ms.agents) {
+      agents += (agents.empty() ? "" : ", ") + part.name + " (" + std::to_string(part.keyframes) + " KFs)";
+    }
+    std::printf("  map %llu%s: %zu keyframes (%zu anchored), %zu points; agents %s\n",
+                static_cast<unsigned long long>(ms.summary.id.counter()), ms.summary.id == ev.final_map ? " (largest)" : "",
+                ms.summary.keyframes + ms.summary.anchored, ms.summary.anchored, ms.summary.map_points,
+                agents.empty() ? "none" : agents.c_str());
+    if (ms.scored) {
+      std::printf("    joint ATE %.4f m = %.3f%% of %.1f m%s", ms.joint_ate_m.rmse, ms.joint_ate_percent, ms.path_m,
+                  ms.scale_ratio > 0 ? "" : "\n");
+      if (ms.scale_ratio > 0) std::printf(", scale ratio between the agents' parts %.3f\n", ms.scale_ratio);
+    }
+  }
   if (ev.collaborative_ate_m.count > 0) {
     std::printf("collaborative ATE %.4f m = %.4f%% of %.1f m joint path (mean standalone VO ATE %.4f m)\n",
                 ev.collaborative_ate_m.rmse, ev.collaborative_ate_percent, ev.joint_path_m, ev.mean_standalone_ate_m);
@@ -152,7 +199,14 @@ int main(int argc, char** argv) {
   CLI::App app{"ccm_replay: several agents' VO + the server back-end in one process (no DDS)"};
   app.add_option("--sim", a.sim, "built-in scenario (hall3, disjoint2, repeated) or scenario YAML");
   app.add_option("--sim-agents", a.sim_agents, "scenario agent indices (default: all)")->delimiter(',');
-  app.add_option("--dataset", a.datasets, "dataset folder (EuRoC/TUM/KITTI layout), one per agent; repeat");
+  app.add_option("--dataset", a.datasets,
+                 "dataset folder (EuRoC/TUM/KITTI layout), one per agent; repeat. DIR@FIRST-LAST takes "
+                 "frames FIRST..LAST (0-based, inclusive; DIR@FIRST- to the end), so slices of one "
+                 "sequence can be several agents");
+  app.add_option("--ground-truth", a.ground_truth,
+                 "ground-truth file of the datasets in the reader's format (KITTI: poses file; EuRoC: "
+                 "data.csv; TUM: groundtruth.txt) when not at its usual place: once for every --dataset, "
+                 "or once per --dataset in order")->check(CLI::ExistingFile);
   app.add_option("--format", a.format, "dataset format: auto, euroc, tum, kitti")->capture_default_str();
   app.add_option("--vocab", a.vocabulary, "bag-of-words vocabulary (ccm_vocab)")->capture_default_str();
   app.add_option("--out", a.out, "output folder")->capture_default_str();
@@ -244,7 +298,8 @@ int main(int argc, char** argv) {
     ccm::replay::RecordAgents(result, &recording);
     if (!ccm::replay::SaveRecording(recording, a.record, &error)) return Fail(error, 1);
   }
-  std::printf("outputs in %s (summary.json, *_keyframes.tum, map.ply, map_top.png)\n", a.out.c_str());
+  std::printf("outputs in %s (summary.json, map<k>_<agent>_keyframes.tum per map, <agent>_keyframes.tum of the "
+              "largest map, map.ply, map_top.png)\n", a.out.c_str());
   std::fflush(stdout);
   if (view && a.http_linger_s != 0.0) {
     ccm::replay::ReplayProgress done;

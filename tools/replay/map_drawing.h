@@ -1,7 +1,9 @@
-// The fused map as files: an ASCII PLY (map points grey, keyframe centres coloured per agent)
-// and a PNG top view (points, each agent's keyframe trajectory, ground truth when known),
-// drawn in the ground-truth frame when the replay was scored, else in the map frame on its
-// two principal axes.
+// Server maps as files: an ASCII PLY per map (map points grey, keyframe centres coloured per
+// agent) and one PNG top view with a panel per map, largest first (maps that never fused
+// have unrelated frames, so each gets its own panel and scale bar). A panel is drawn in the
+// ground-truth frame when its map was scored, else in the map frame; either way seen from
+// above, "up" being opposite the cameras' mean image-down direction (level cameras: cars,
+// drones with forward cameras, hand-held), or the flat axis of the keyframes otherwise.
 #pragma once
 
 #include <string>
@@ -11,7 +13,8 @@
 namespace ccm::replay {
 
 bool WriteMapPly(const std::string& path, const ServerBackend& backend, MapId map, std::string* error);
+/// `panel_px`: side of each panel; 0: 1200 for one map, 800 for several.
 bool WriteMapTopView(const std::string& path, const ReplayResult& result, const ReplayEvaluation& evaluation,
-                     const ServerBackend& backend, std::string* error, int size_px = 1200);
+                     const ServerBackend& backend, std::string* error, int panel_px = 0);
 
 }  // namespace ccm::replay

@@ -1,7 +1,10 @@
-// Scores and writes what a replay produced: collaborative ATE of every keyframe in the final
-// map's frame (one Sim(3) alignment over all agents, CCM-SLAM's measure) next to each agent's
-// standalone VO ATE, and the output folder: per-agent keyframe trajectories (TUM) in the
-// final map's frame, summary.json, the fused map as PLY and a PNG top view.
+// Scores and writes what a replay (or a live server, server_runtime/server_outputs.h)
+// produced, for EVERY map that remains, so an agent that never fused is not invisible:
+// per map, each agent's keyframes, the joint ATE of all its keyframes under one Sim(3)
+// alignment (CCM-SLAM's measure) and how well the agents' parts agree in scale; for the
+// largest map also the historic per-agent numbers; each agent's standalone VO ATE. Outputs:
+// keyframe trajectories per map and agent (TUM), summary.json, PLY per map, one PNG top view
+// with a panel per map.
 #pragma once
 
 #include <string>
@@ -23,10 +26,37 @@ struct AgentScore {
   ErrorStats collaborative_ate_m;   ///< server keyframes under the joint alignment
 };
 
+/// One agent's part of one server map.
+struct AgentInMap {
+  std::string name;
+  AgentId id = 0;
+  size_t keyframes = 0;       ///< registered and anchored keyframes of the agent in the map
+  double path_m = 0.0;        ///< ground-truth path between its first and last keyframe there
+  ErrorStats ate_m;           ///< under the map's joint alignment
+  /// Scale of this part's own Sim(3) alignment to the ground truth (metres per map unit);
+  /// 0 if not scored. Parts of one well-fused map have equal scales.
+  double scale_to_gt = 0.0;
+};
+
+struct MapScore {
+  MapSummary summary;
+  std::vector<AgentInMap> agents;   ///< agents with keyframes (or a handler) in the map
+  bool scored = false;              ///< ground truth aligned
+  ErrorStats joint_ate_m;           ///< every keyframe of the map, one Sim(3) alignment
+  double path_m = 0.0;              ///< sum of the agents' path_m
+  double joint_ate_percent = 0.0;   ///< RMSE / path_m * 100
+  Sim3 gt_from_map;
+  /// Largest / smallest scale_to_gt of the map's scored agents: 1 when their parts agree;
+  /// 0 with fewer than two scored agents.
+  double scale_ratio = 0.0;
+  std::string note;                 ///< why it was not scored
+};
+
 struct ReplayEvaluation {
   bool has_ground_truth = false;
   MapId final_map;                  ///< the largest map (all agents' when everything fused)
   size_t maps = 0;
+  std::vector<MapScore> map_scores; ///< every map, largest first
   double joint_path_m = 0.0;
   ErrorStats collaborative_ate_m;   ///< every keyframe of the final map, one alignment
   double collaborative_ate_percent = 0.0;  ///< RMSE / joint path * 100
@@ -38,7 +68,14 @@ struct ReplayEvaluation {
 
 ReplayEvaluation EvaluateReplay(const ReplayResult& result);
 
-/// Writes agent<i>_keyframes.tum (final map frame), summary.json, map.ply, map_top.png.
+/// Output file names: the keyframes of `agent` in map `map` ("map<k>_<agent>_keyframes.tum"),
+/// and a map's PLY ("map.ply" for the largest map, "map<k>.ply" for the others).
+std::string MapTrajectoryFile(MapId map, const std::string& agent);
+std::string MapPlyFile(const ReplayEvaluation& evaluation, MapId map);
+
+/// Writes into `dir`: map<k>_<agent>_keyframes.tum for every map and agent in it,
+/// <agent>_keyframes.tum (largest map, as before maps were listed), <agent>_ground_truth.tum,
+/// summary.json (every map), map.ply / map<k>.ply, map_top.png (a panel per map).
 bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, const ReplayEvaluation& evaluation,
                         const ServerBackend& backend, std::string* error);
 
