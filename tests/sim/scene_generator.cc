@@ -112,8 +112,10 @@ void WriteAgentYaml(std::ostringstream& y, const std::string& name, const Flight
   char buf[256];
   std::snprintf(buf, sizeof(buf),
                 "  - name: %s\n    rate_hz: %.0f\n    duration_s: %.1f\n    speed_mps: [%.2f, %.2f]\n"
-                "    speed_period_s: %.1f\n    pitch_deg: %.1f\n    wobble_deg: %.1f\n    waypoints: [",
-                name.c_str(), rate_hz, duration_s, f.min_speed, f.max_speed, f.speed_period, f.pitch_deg, f.wobble_deg);
+                "    speed_period_s: %.1f\n    pitch_deg: %.1f\n    wobble_deg: %.1f\n    look_ahead_m: %.2f\n"
+                "    waypoints: [",
+                name.c_str(), rate_hz, duration_s, f.min_speed, f.max_speed, f.speed_period, f.pitch_deg, f.wobble_deg,
+                f.look_ahead_m);
   y << buf;
   for (size_t i = 0; i < f.waypoints.size(); ++i) {
     const FlightWaypoint& w = f.waypoints[i];
@@ -159,6 +161,9 @@ GeneratedScene GenerateScene(std::uint64_t seed, const SceneGeneratorOptions& op
   const double duration = rng.Uniform(options.min_duration_s, options.max_duration_s);
   builder.BuildFlights(duration);
   builder.AddFillerObjects();
+  for (PlannedOverlap& p : g.plan) {
+    p.flown = p.kind != PlannedOverlapKind::kNone && builder.arcs_flown(p.agent_a) && builder.arcs_flown(p.agent_b);
+  }
 
   std::ostringstream y;
   char buf[256];

@@ -28,6 +28,9 @@ struct PlannedOverlap {
   PlannedOverlapKind kind = PlannedOverlapKind::kNone;
   double view_angle_deg = 0.0;   ///< between the two agents' views of the shared target
   double seconds = 0.0;          ///< planned time on the shared arc (each agent, per lap)
+  /// False when one of the two loops could not join the shared arc smoothly and flies
+  /// without it (the target object stays; the ground truth tells what they saw).
+  bool flown = true;
 };
 
 struct SceneGeneratorOptions {

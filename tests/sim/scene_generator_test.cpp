@@ -45,6 +45,7 @@ TEST(SceneGenerator, SameSeedSameSceneOtherSeedOtherScene) {
 TEST(SceneGenerator, ScenesAreValidFlyableAndVaried) {
   std::set<std::string> layouts, cameras, profiles, kinds;
   std::set<int> team_sizes;
+  int planned = 0, flown = 0, fast = 0, flights = 0;
   for (std::uint64_t seed = 1; seed <= 60; ++seed) {
     const GeneratedScene g = GenerateScene(seed);
     const Scenario s = Parse(g.yaml);
@@ -53,7 +54,12 @@ TEST(SceneGenerator, ScenesAreValidFlyableAndVaried) {
     cameras.insert(g.camera);
     profiles.insert(g.texture_profile);
     team_sizes.insert(g.num_agents);
-    for (const PlannedOverlap& p : g.plan) kinds.insert(PlannedOverlapName(p.kind));
+    for (const PlannedOverlap& p : g.plan) {
+      kinds.insert(PlannedOverlapName(p.kind));
+      if (p.kind == PlannedOverlapKind::kNone) continue;
+      ++planned;
+      flown += p.flown;
+    }
     ASSERT_EQ(static_cast<int>(s.agents.size()), g.num_agents);
     Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);  // the space: the room, or the yard's ground
     for (const ObjectSpec& o : s.world.objects) {
@@ -67,6 +73,16 @@ TEST(SceneGenerator, ScenesAreValidFlyableAndVaried) {
       std::string error;
       const auto traj = Trajectory::Create(a.trajectory, &error);
       ASSERT_TRUE(traj) << "seed " << seed << " " << a.name << ": " << error;
+      double max_rate = 0.0;
+      for (double t = 0.0; t + 0.05 <= traj->duration_s(); t += 0.05) {
+        const Eigen::Quaterniond a = traj->WorldFromCam(t).rotation(), b = traj->WorldFromCam(t + 0.05).rotation();
+        max_rate = std::max(max_rate, Eigen::AngleAxisd(a.conjugate() * b).angle() * 180.0 / M_PI / 0.05);
+      }
+      // Drone footage, not whip pans: planned under 125 deg/s (EuRoC peaks near 90); the few
+      // loops that could not be slowed enough stay under 200.
+      EXPECT_LT(max_rate, 200.0) << "seed " << seed << " " << a.name;
+      fast += max_rate > 125.0;
+      ++flights;
       for (double t = 0.0; t <= traj->duration_s(); t += 0.1) {
         const Eigen::Vector3d p = traj->Position(t);
         ASSERT_TRUE(p.x() > lo.x() + 0.3 && p.y() > lo.y() + 0.3 && p.x() < hi.x() - 0.3 && p.y() < hi.y() - 0.3)
@@ -87,6 +103,11 @@ TEST(SceneGenerator, ScenesAreValidFlyableAndVaried) {
       EXPECT_GT(traj->ArcLength(traj->duration_s()), 1.1 * loop) << "seed " << seed << " " << a.name;
     }
   }
+  // At least half of the planned overlaps are flown (the rest fly plain loops beside their
+  // target: the ground truth, not the plan, says which pairs overlap), and almost every
+  // flight turns at most 125 deg/s.
+  EXPECT_GE(2 * flown, planned) << flown << " of " << planned << " planned overlaps flown";
+  EXPECT_LE(20 * fast, flights) << fast << " of " << flights << " flights turn faster than 125 deg/s";
   EXPECT_EQ(layouts.size(), 4u);
   EXPECT_GE(team_sizes.size(), 6u);
   EXPECT_EQ(kinds.size(), 5u);
@@ -129,7 +150,7 @@ TEST(OverlapTruth, PlannedOverlapsAreSeen) {
     const GeneratedScene g = GenerateScene(seed, go);
     bool wanted = false;
     for (const PlannedOverlap& p : g.plan) {
-      wanted = wanted || p.kind == PlannedOverlapKind::kSame || p.kind == PlannedOverlapKind::kLong;
+      wanted = wanted || (p.flown && (p.kind == PlannedOverlapKind::kSame || p.kind == PlannedOverlapKind::kLong));
     }
     if (!wanted || g.layout == SceneLayout::kYard) continue;  // yards: slow to build, covered by the bench
     std::string error;
@@ -139,7 +160,7 @@ TEST(OverlapTruth, PlannedOverlapsAreSeen) {
     o.sample_hz = 2.0;
     const OverlapTruth t = OverlapTruth::Compute(*sim, o);
     for (const PlannedOverlap& p : g.plan) {
-      if (p.kind != PlannedOverlapKind::kSame && p.kind != PlannedOverlapKind::kLong) continue;
+      if (!p.flown || (p.kind != PlannedOverlapKind::kSame && p.kind != PlannedOverlapKind::kLong)) continue;
       const PairTruth& pt = t.pair(p.agent_a, p.agent_b);
       EXPECT_TRUE(pt.overlaps) << "seed " << seed << " pair " << p.agent_a << "-" << p.agent_b;
       EXPECT_GE(std::min(pt.seconds_a, pt.seconds_b), 0.5 * p.seconds)

@@ -31,6 +31,7 @@ struct FlightPlan {
   std::vector<FlightWaypoint> waypoints;  ///< a closed loop
   double min_speed = 0.5, max_speed = 1.0, speed_period = 15.0;
   double pitch_deg = -12.0, wobble_deg = 1.5;
+  double look_ahead_m = 1.5;  ///< heading from the path +- this (a steadier heading through bends)
   double duration_s = 40.0;
 };
 
@@ -55,6 +56,8 @@ class SceneBuilder {
 
   const std::vector<std::string>& objects_yaml() const { return objects_; }
   const FlightPlan& flight(int agent) const { return agents_.at(agent).flight; }
+  /// False when the agent's loop could not join its shared arcs smoothly and flies without.
+  bool arcs_flown(int agent) const { return !agents_.at(agent).arcs_dropped; }
   double texel_m() const { return texel_m_; }
   double background_grey() const { return background_grey_; }
   double duration_s() const { return duration_s_; }
@@ -83,13 +86,14 @@ class SceneBuilder {
     int yaw_style = 0;           // 0 forward, 1 sideways, 2 varying
     double yaw_base = 0.0;
     std::vector<ViewArc> arcs;
+    bool arcs_dropped = false;
     FlightPlan flight;
   };
 
   void MakeSpace();
   void MakeAgents();
   std::vector<FlightWaypoint> ArcPoints(const AgentPlan& a, const ViewArc& arc, double mean_speed) const;
-  std::vector<FlightWaypoint> LoopWaypoints(AgentPlan* a, double mean_speed);
+  std::vector<FlightWaypoint> LoopWaypoints(AgentPlan* a, double mean_speed, bool plain);
   void FitSpeeds(AgentPlan* a, double duration_s);
   void KeepClear(std::vector<FlightWaypoint>* wps) const;
   TrajectorySpec Spec(const FlightPlan& f) const;
@@ -110,6 +114,11 @@ class SceneBuilder {
   void PlanRun(PlannedOverlap* p, double theta_rad, ViewArc* arc_a, ViewArc* arc_b);
   /// Yaw offsets of kLookAt / kLookAlong waypoints from the heading the spline really flies.
   void AimCameras(FlightPlan* f) const;
+  double MaxTurnRateDegS(const FlightPlan& f) const;
+  /// Slows the flight down where the camera would turn faster than ~90 deg/s.
+  void LimitTurnRate(FlightPlan* f) const;
+  /// Clear of walls and obstacles, turning at most ~120 deg/s, and more than one lap.
+  bool FlightOk(const FlightPlan& f) const;
 
   SceneLayout layout_;
   int num_agents_, profile_;
