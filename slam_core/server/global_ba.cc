@@ -130,6 +130,8 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   r.initial_rmse_px = opt::ReprojectionRmsePx(snap.problem);
   opt::BundleAdjusterOptions ba = opt::GlobalBaDefaults();
   ba.robust_iterations = options.iterations;
+  ba.reject_outliers = true;
+  ba.refine_iterations = options.iterations;
   ba.num_threads = options.threads;
   ba.abort = abort;
   const opt::OptimizationSummary s = opt::BundleAdjust(&snap.problem, ba);

@@ -85,7 +85,7 @@ struct PlaceMatchingOptions {
 struct OptimizationJobOptions {
   bool global_ba_after_loop = true;
   bool global_ba_after_fusion = true;
-  int global_ba_iterations = 10;
+  int global_ba_iterations = 20;
   int global_ba_threads = 2;
   /// After a global BA of a map that took t seconds, the next one of that map waits
   /// factor * t (threaded runs): with many agents, loops and fusions come faster than a

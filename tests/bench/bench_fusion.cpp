@@ -6,10 +6,12 @@
 // goals. Seeds 1-20 are the tuning set, 1001-1040 the held-out set (report only).
 //   bench_fusion --set held-out --jobs 2 --out bench-out
 //   bench_fusion --seeds 3,7,12-14 --max-agents 4
+//   bench_fusion --set tune --record recs && bench_fusion --set tune --play recs   # server only
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -22,6 +24,7 @@
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tests/bench/fusion_report.h"
 #include "tests/bench/fusion_scoring.h"
+#include "tools/replay/batch_recording.h"
 #include "tests/sim/scene_generator.h"
 #include "tests/sim/sim_frame_source.h"
 
@@ -47,8 +50,14 @@ bool ParseSeeds(const std::string& text, std::vector<std::uint64_t>* out, std::s
   return !out->empty();
 }
 
+// Where a scene's recording lives (--record / --play).
+std::string RecordingPath(const std::string& dir, std::uint64_t seed) {
+  return dir + "/gen-" + std::to_string(seed) + ".ccmrec";
+}
+
 SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& gen,
-                     const ccm::replay::ReplayOptions& base, const std::shared_ptr<const ccm::Vocabulary>& vocab) {
+                     const ccm::replay::ReplayOptions& base, const std::shared_ptr<const ccm::Vocabulary>& vocab,
+                     const std::string& record_dir, const std::string& play_dir) {
   const auto t0 = std::chrono::steady_clock::now();
   SceneResult out;
   out.scene = ccm::sim::GenerateScene(seed, gen);
@@ -61,13 +70,31 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
     return out;
   }
   const auto truth = ccm::sim::OverlapTruth::Compute(*sim);
-  std::vector<ccm::replay::ReplayAgentInput> inputs;
-  for (int a = 0; a < sim->num_agents(); ++a) {
-    inputs.push_back({sim->agent_name(a), static_cast<ccm::AgentId>(a + 1),
-                      std::make_unique<ccm::sim::SimFrameSource>(sim, a)});
-  }
   ccm::ServerBackend backend(vocab, base.BackendOptions());
-  const ccm::replay::ReplayResult result = ccm::replay::RunReplay(std::move(inputs), base, &backend);
+  ccm::replay::ReplayResult result;
+  if (!play_dir.empty()) {
+    // The agents' batches as recorded: only the server runs again (server-side tuning).
+    const auto recording = ccm::replay::LoadRecording(RecordingPath(play_dir, seed), &error);
+    if (!recording) {
+      out.error = error;
+      return out;
+    }
+    result = ccm::replay::PlayRecording(*recording, &backend, ccm::replay::PlayOptions{});
+  } else {
+    std::vector<ccm::replay::ReplayAgentInput> inputs;
+    for (int a = 0; a < sim->num_agents(); ++a) {
+      inputs.push_back({sim->agent_name(a), static_cast<ccm::AgentId>(a + 1),
+                        std::make_unique<ccm::sim::SimFrameSource>(sim, a)});
+    }
+    ccm::replay::ReplayOptions options = base;
+    ccm::replay::Recording recording;
+    if (!record_dir.empty()) options.on_batch = [&](const ccm::AgentBatch& b) { recording.batches.push_back(b); };
+    result = ccm::replay::RunReplay(std::move(inputs), options, &backend);
+    if (!record_dir.empty()) {
+      ccm::replay::RecordAgents(result, &recording);
+      if (!ccm::replay::SaveRecording(recording, RecordingPath(record_dir, seed), &error)) out.error = error;
+    }
+  }
   if (!result.error.empty()) {
     out.error = result.error;
     return out;
@@ -78,6 +105,7 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
   out.place_recognition_ms = result.stats.place.queries
                                  ? result.stats.place.total_query_ms / static_cast<double>(result.stats.place.queries)
                                  : 0.0;
+  out.place = result.stats.place;
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
@@ -88,7 +116,7 @@ int main(int argc, char** argv) {
   google::InitGoogleLogging(argv[0]);
   FLAGS_minloglevel = 2;
   CLI::App app{"bench_fusion: map fusion, loops and VO over generated multi-agent scenes, scored on ground truth"};
-  std::string seeds_text, set, out_dir, vocab_path = CCM_DEFAULT_VOCABULARY;
+  std::string seeds_text, set, out_dir, record_dir, play_dir, vocab_path = CCM_DEFAULT_VOCABULARY;
   int jobs = 1;
   bool no_sharing = false;
   ccm::sim::SceneGeneratorOptions gen;
@@ -101,6 +129,8 @@ int main(int argc, char** argv) {
   app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();
   app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
+  app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
+  app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   CLI11_PARSE(app, argc, argv);
 
   std::vector<std::uint64_t> seeds;
@@ -125,6 +155,7 @@ int main(int argc, char** argv) {
   replay.agent_vocabulary = vocab;
   replay.map_sharing = !no_sharing;
   replay.progress_period_s = 1e9;
+  if (!record_dir.empty()) std::filesystem::create_directories(record_dir);
   std::ofstream jsonl;
   if (!out_dir.empty()) {
     std::filesystem::create_directories(out_dir);
@@ -141,7 +172,7 @@ int main(int argc, char** argv) {
   for (int j = 0; j < jobs; ++j) {
     workers.emplace_back([&] {
       for (size_t i; (i = next++) < seeds.size();) {
-        results[i] = RunScene(seeds[i], gen, replay, vocab);
+        results[i] = RunScene(seeds[i], gen, replay, vocab, record_dir, play_dir);
         std::lock_guard<std::mutex> lock(print_mutex);
         std::fputs(ccm::bench::SceneBlock(results[i]).c_str(), stdout);
         std::fflush(stdout);

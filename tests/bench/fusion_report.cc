@@ -52,6 +52,15 @@ std::string SceneBlock(const SceneResult& r) {
                 100.0 * sc.worst_scale_spread);
   }
   s += "\n";
+  s += Format("  place recognition: %lld queries, %lld fusion candidates, stopped at:", static_cast<long long>(r.place.queries),
+              static_cast<long long>(r.place.match_candidates));
+  for (int i = 0; i < kNumVerificationStages; ++i) {
+    if (r.place.fusion_stopped_at[i] > 0) {
+      s += Format(" %s %lld", VerificationStageName(static_cast<VerificationStage>(i)),
+                  static_cast<long long>(r.place.fusion_stopped_at[i]));
+    }
+  }
+  s += Format("; inconsistent %lld\n", static_cast<long long>(r.place.inconsistent));
   for (const DetectionCheck& c : sc.fusions) {
     if (c.wrong) {
       s += Format("  WRONG fusion: agents %u/%u, rotation error %.1f deg, direction error %.1f deg, view share %.2f\n",

@@ -19,6 +19,7 @@ struct SceneResult {
   int64_t frames = 0;
   double wall_s = 0.0;
   double place_recognition_ms = 0.0;  ///< mean per query (database + verification)
+  PlaceMatcherStats place;            ///< the place-recognition funnel (where candidates stopped)
   std::string error;                  ///< the scene could not be replayed
 };
 

@@ -19,7 +19,7 @@ namespace ccm::replay {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'C', 'M', 'R', 'E', 'C', 'R', 'D'};
-constexpr uint32_t kVersion = 2;  // 2: anchor-only keyframes
+constexpr uint32_t kVersion = 3;  // 2: anchor-only keyframes; 3: VO segments, relocalizations
 using Pose7 = std::array<double, 7>;
 
 Pose7 P(const SE3& T) {
@@ -51,8 +51,10 @@ struct AgentRec {
   uint16_t id = 0;
   int64_t frames = 0, tracked = 0, kfs = 0;
   int segments = 0;
+  int64_t relocalizations = 0;
   TrajRec gt, vo;
-  template <class A> void serialize(A& a) { a(name, id, frames, tracked, kfs, segments, gt, vo); }
+  std::vector<std::pair<uint64_t, TrajRec>> vo_segments;
+  template <class A> void serialize(A& a) { a(name, id, frames, tracked, kfs, segments, relocalizations, gt, vo, vo_segments); }
 };
 
 struct CamRec {
@@ -147,15 +149,17 @@ KfRec ToRec(const KeyframeData& k, uint32_t camera) {
 void RecordAgents(const ReplayResult& result, Recording* recording) {
   for (const ReplayAgentResult& a : result.agents) {
     recording->agents.push_back({a.name, a.id, a.frames, a.frames_tracked, a.keyframes_created, a.segments,
-                                 a.ground_truth, a.vo_keyframes});
+                                 a.relocalizations, a.ground_truth, a.vo_keyframes, a.vo_segments});
   }
 }
 
 bool SaveRecording(const Recording& rec, const std::string& path, std::string* error) {
   FileRec f;
   for (const RecordedAgent& a : rec.agents) {
-    f.agents.push_back({a.name, a.id, a.frames, a.frames_tracked, a.keyframes_created, a.segments, T(a.ground_truth),
-                        T(a.vo_keyframes)});
+    AgentRec r{a.name, a.id, a.frames, a.frames_tracked, a.keyframes_created, a.segments, a.relocalizations,
+               T(a.ground_truth), T(a.vo_keyframes), {}};
+    for (const auto& [segment, t] : a.vo_segments) r.vo_segments.emplace_back(segment.packed(), T(t));
+    f.agents.push_back(std::move(r));
   }
   std::map<const CameraModel*, uint32_t> cams;
   for (const AgentBatch& b : rec.batches) {
@@ -235,7 +239,9 @@ std::optional<Recording> LoadRecording(const std::string& path, std::string* err
   }
   Recording rec;
   for (const AgentRec& a : f.agents) {
-    rec.agents.push_back({a.name, a.id, a.frames, a.tracked, a.kfs, a.segments, T(a.gt), T(a.vo)});
+    RecordedAgent r{a.name, a.id, a.frames, a.tracked, a.kfs, a.segments, a.relocalizations, T(a.gt), T(a.vo), {}};
+    for (const auto& [segment, t] : a.vo_segments) r.vo_segments[MapId(segment)] = T(t);
+    rec.agents.push_back(std::move(r));
   }
   std::vector<std::shared_ptr<const CameraModel>> cams;
   for (const CamRec& c : f.cameras) {
@@ -332,6 +338,8 @@ ReplayResult PlayRecording(const Recording& rec, ServerBackend* backend, const P
     r.segments = a.segments;
     r.ground_truth = a.ground_truth;
     r.vo_keyframes = a.vo_keyframes;
+    r.vo_segments = a.vo_segments;
+    r.relocalizations = a.relocalizations;
     r.server_keyframes = backend->AgentTrajectory(a.id);
     result.agents.push_back(std::move(r));
   }

@@ -6,6 +6,7 @@
 // FNV-1a-64 checksum.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,8 +21,10 @@ struct RecordedAgent {
   AgentId id = 0;
   int64_t frames = 0, frames_tracked = 0, keyframes_created = 0;
   int segments = 0;
+  int64_t relocalizations = 0;
   Trajectory ground_truth;
   Trajectory vo_keyframes;
+  std::map<MapId, Trajectory> vo_segments;
 };
 
 struct Recording {
