@@ -89,10 +89,10 @@ CameraChoice PickCamera(Rng* rng, bool allow_fisheye) {
 int PickAgents(Rng* rng, const SceneGeneratorOptions& o) {
   // Small teams are commoner (and cheaper to replay); every size in range occurs.
   double total = 0.0;
-  for (int n = o.min_agents; n <= o.max_agents; ++n) total += n <= 4 ? 1.0 : 0.6;
+  for (int n = o.min_agents; n <= o.max_agents; ++n) total += n <= 4 ? 1.0 : 0.3;
   double x = rng->Uniform() * total;
   for (int n = o.min_agents; n < o.max_agents; ++n) {
-    if ((x -= n <= 4 ? 1.0 : 0.6) < 0.0) return n;
+    if ((x -= n <= 4 ? 1.0 : 0.3) < 0.0) return n;
   }
   return o.max_agents;
 }
@@ -137,8 +137,8 @@ GeneratedScene GenerateScene(std::uint64_t seed, const SceneGeneratorOptions& op
   g.texture_profile = StyleName(profile);
   const CameraChoice camera = PickCamera(&rng, options.allow_fisheye);
   g.camera = camera.name;
-  g.rate_hz = std::vector<double>{10.0, 15.0, 20.0}[rng.Pick({0.4, 0.3, 0.3})];
-  g.motion_blur = options.allow_motion_blur && rng.Uniform() < 0.35;
+  g.rate_hz = std::vector<double>{10.0, 15.0, 20.0}[rng.Pick({0.5, 0.3, 0.2})];
+  g.motion_blur = options.allow_motion_blur && rng.Uniform() < 0.25;
 
   SceneBuilder builder(g.layout, g.num_agents, profile, &rng);
   // Neighbouring cells get a planned overlap each; at least one pair overlaps.

@@ -35,7 +35,7 @@ struct PlannedOverlap {
 
 struct SceneGeneratorOptions {
   int min_agents = 2, max_agents = 8;
-  double min_duration_s = 30.0, max_duration_s = 50.0;  ///< flight time of every agent
+  double min_duration_s = 25.0, max_duration_s = 40.0;  ///< flight time of every agent
   bool allow_fisheye = true;
   bool allow_motion_blur = true;
   std::string Validate() const;  ///< empty if usable
