@@ -11,8 +11,8 @@ set(CCM_DATA_INSTALL_DIR share/ccm-slam-dds)  # must match rt::kInstallDataSubdi
 
 install(FILES qos_profiles/default.xml qos_profiles/wifi.xml qos_profiles/secure.xml
         DESTINATION ${CCM_DATA_INSTALL_DIR}/qos_profiles COMPONENT common)
-if(DEFINED CCM_SIM_VOCAB_FILE)
-  install(FILES ${CCM_SIM_VOCAB_FILE} DESTINATION ${CCM_DATA_INSTALL_DIR}/vocabulary COMPONENT common)
+if(DEFINED CCM_DEFAULT_VOCAB_FILE)
+  install(FILES ${CCM_DEFAULT_VOCAB_FILE} DESTINATION ${CCM_DATA_INSTALL_DIR}/vocabulary COMPONENT common)
 endif()
 install(FILES docs/deployment.md docs/troubleshooting.md DESTINATION share/doc/ccm-slam-dds COMPONENT common)
 

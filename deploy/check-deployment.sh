@@ -25,7 +25,7 @@ echo "[deploy] 1. cmake --install (prefix /usr, DESTDIR=$R)"
 DESTDIR="$R" cmake --install "$BUILD_DIR" --prefix /usr >"$SCRATCH/install.log" 2>&1 || { cat "$SCRATCH/install.log"; fail "install"; }
 for f in usr/bin/ccm_agent usr/bin/ccm_server usr/bin/ccm_ctl usr/bin/ccm_sim usr/bin/ccm_eval usr/bin/ccm_vocab \
          usr/bin/ccm_replay usr/share/ccm-slam-dds/qos_profiles/wifi.xml usr/share/ccm-slam-dds/qos_profiles/default.xml \
-         usr/share/ccm-slam-dds/vocabulary/sim_vocab_k10_l5.ccmvoc usr/share/ccm-slam-dds/config/agent-onboard.yaml \
+         usr/share/ccm-slam-dds/vocabulary/default_vocab_k10_l5.ccmvoc usr/share/ccm-slam-dds/config/agent-onboard.yaml \
          usr/share/ccm-slam-dds/scripts/run-discovery-server.sh etc/ccm-slam-dds/wifi.xml etc/ccm-slam-dds/server.yaml \
          usr/lib/systemd/system/ccm-server.service usr/lib/systemd/system/ccm-agent@.service; do
   [ -e "$R/$f" ] || fail "cmake --install did not install /$f"

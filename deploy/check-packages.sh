@@ -44,7 +44,7 @@ expect_depends() {  # package, then substrings its Depends must contain
 }
 
 expect_files ccm-common /usr/share/ccm-slam-dds/qos_profiles/default.xml /usr/share/ccm-slam-dds/qos_profiles/wifi.xml \
-  /usr/share/ccm-slam-dds/vocabulary/sim_vocab_k10_l5.ccmvoc /etc/ccm-slam-dds/wifi.xml \
+  /usr/share/ccm-slam-dds/vocabulary/default_vocab_k10_l5.ccmvoc /etc/ccm-slam-dds/wifi.xml \
   /usr/share/ccm-slam-dds/scripts/run-discovery-server.sh /usr/share/doc/ccm-slam-dds/deployment.md
 expect_files ccm-agent /usr/bin/ccm_agent /usr/lib/systemd/system/ccm-agent@.service \
   /usr/share/ccm-slam-dds/config/agent-onboard.yaml
@@ -74,10 +74,10 @@ echo "[packages] --help runs for every extracted binary"
 # The extracted server finds the extracted vocabulary and default QoS file (install_paths.h).
 "$ROOT/usr/bin/ccm_server" --domain 191 --duration 1 --no-final-ba --log-level info >"$OUT/server_run.log" 2>&1 \
   || fail "extracted ccm_server failed: $(cat "$OUT/server_run.log")"
-grep -q "vocabulary $ROOT/usr/share/ccm-slam-dds/vocabulary/sim_vocab_k10_l5.ccmvoc" "$OUT/server_run.log" \
+grep -q "vocabulary $ROOT/usr/share/ccm-slam-dds/vocabulary/default_vocab_k10_l5.ccmvoc" "$OUT/server_run.log" \
   || fail "extracted ccm_server did not use the installed vocabulary: $(grep 'server up' "$OUT/server_run.log")"
 grep -q "QoS $ROOT/usr/share/ccm-slam-dds/qos_profiles/default.xml" "$OUT/server_run.log" \
   || fail "extracted ccm_server did not use the installed QoS file: $(grep 'server up' "$OUT/server_run.log")"
-"$ROOT/usr/bin/ccm_vocab" info "$ROOT/usr/share/ccm-slam-dds/vocabulary/sim_vocab_k10_l5.ccmvoc" >/dev/null \
+"$ROOT/usr/bin/ccm_vocab" info "$ROOT/usr/share/ccm-slam-dds/vocabulary/default_vocab_k10_l5.ccmvoc" >/dev/null \
   || fail "ccm_vocab cannot read the installed vocabulary"
 echo "[packages] OK ($(( $(date +%s) - start )) s)"

@@ -13,9 +13,10 @@
 namespace ccm::rt {
 
 inline constexpr const char* kInstallDataSubdir = "share/ccm-slam-dds";
-/// The vocabulary `cmake --install` ships, relative to the data dir (the simulator one; real
-/// sites train their own): the default of ccm_server, ccm_agent and ccm_replay.
-inline constexpr const char* kInstalledVocabulary = "vocabulary/sim_vocab_k10_l5.ccmvoc";
+/// The vocabulary `cmake --install` ships, relative to the data dir (the general default,
+/// docs/place-recognition.md; sites may train their own): the default of ccm_server, ccm_agent
+/// and ccm_replay.
+inline constexpr const char* kInstalledVocabulary = "vocabulary/default_vocab_k10_l5.ccmvoc";
 
 /// <dir of this executable>/../share/ccm-slam-dds, or "" if /proc/self/exe is unreadable.
 inline std::string InstalledDataDir() {

@@ -38,9 +38,19 @@ double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
 
 }  // namespace
 
+namespace {
+PlaceMatchingOptions Resolved(PlaceMatchingOptions o, const Vocabulary& vocabulary) {
+  if (o.vocabulary_levels_up < 0) o.vocabulary_levels_up = std::max(0, vocabulary.levels() - 2);
+  return o;
+}
+}  // namespace
+
 PlaceMatcher::PlaceMatcher(std::shared_ptr<const Vocabulary> vocabulary, const PlaceMatchingOptions& options,
                            MapStack* stack)
-    : vocabulary_(std::move(vocabulary)), options_(options), stack_(stack), database_(vocabulary_->num_words()) {}
+    : vocabulary_(std::move(vocabulary)),
+      options_(Resolved(options, *vocabulary_)),
+      stack_(stack),
+      database_(vocabulary_->num_words()) {}
 
 std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -97,7 +107,9 @@ std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
   if (!found && stack_->num_maps() > 1) {
     QueryFilter f;
     f.exclude_maps = {q.map};
-    const auto cands = database_.DetectCandidates(q.bow, f, copt, covis);
+    CandidateOptions fopt = copt;
+    fopt.min_score *= options_.fusion_min_score_ratio;
+    const auto cands = database_.DetectCandidates(q.bow, f, fopt, covis);
     Bump(&PlaceMatcherStats::match_candidates, static_cast<int64_t>(cands.size()));
     found = TryCandidates(q, cands, PlaceDetection::Kind::kFusion);
   }

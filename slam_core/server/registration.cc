@@ -101,17 +101,9 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
       AddPendingLink(mp_id, data.id, idx);
     }
   }
-  // Where the server has not corrected the agent's predecessor, the agent's relative pose
-  // is the best there is (its VO optimized it against these same links in a window of
-  // keyframes): a pose-only refinement would only add noise, and chained through the next
-  // keyframes that noise becomes drift (New Tsukuba, one agent: the server's keyframes
-  // 2.6x the VO's ATE). The refinement then only finds the outlier links.
-  const auto pred_info = reg.placement == RegisteredKeyframe::Placement::kPredecessor ? smap->Info(data.predecessor)
-                                                                                       : std::nullopt;
-  const bool keep_agent_pose = pred_info && !pred_info->settled;
   int inliers = 0;
-  reg.refined = RefinePose(smap, kf.get(), &inliers, keep_agent_pose);
-  if (reg.refined && !keep_agent_pose && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
+  reg.refined = RefinePose(smap, kf.get(), &inliers);
+  if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
     UpdateScale(handler, data, smap, *kf);
   }
   const SE3 final_pose = kf->world_from_cam();
@@ -157,7 +149,7 @@ void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, S
   ++report->anchors_registered;
 }
 
-bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers, bool keep_pose) {
+bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers) {
   Map& map = smap->map();
   std::vector<opt::PointObservation> obs;
   std::vector<std::pair<int, MapPointId>> refs;
@@ -179,7 +171,7 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers, 
   if (!s.usable || s.num_inliers < options_.refine_min_inliers || 2 * s.num_inliers < static_cast<int>(obs.size())) {
     return false;
   }
-  if (!keep_pose) kf->SetWorldFromCam(pose);
+  kf->SetWorldFromCam(pose);
   *inliers = s.num_inliers;
   // Outlier links would pull later optimizations: drop them (the agent's link was wrong or
   // the point was fused differently on the server).

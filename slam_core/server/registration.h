@@ -67,7 +67,7 @@ class AgentRegistration {
   void RegisterPoint(const MapPointData& mp, RegistrationReport* report);
   void ReleaseWaitingPoints(KeyframeId kf, RegistrationReport* report);
   void AddPendingLink(MapPointId mp, KeyframeId kf, int keypoint);
-  bool RefinePose(ServerMap* map, KeyFrame* kf, int* inliers, bool keep_pose);
+  bool RefinePose(ServerMap* map, KeyFrame* kf, int* inliers);
   void UpdateScale(const AgentHandler& handler, const KeyframeData& data, ServerMap* map, const KeyFrame& kf);
   void ApplyKeyframeUpdate(const KeyframePoseUpdate& u, RegistrationReport* report);
   void ApplyPointUpdate(const MapPointPositionUpdate& u, MapId segment, RegistrationReport* report);

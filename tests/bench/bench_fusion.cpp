@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
   int jobs = 1;
   bool no_sharing = false;
   ccm::sim::SceneGeneratorOptions gen;
+  ccm::replay::ReplayOptions replay;
   app.add_option("--seeds", seeds_text, "seeds, e.g. 1-20 or 3,7,1001-1005");
   app.add_option("--set", set, "tune (seeds 1-20) or held-out (seeds 1001-1040)")->check(CLI::IsMember({"tune", "held-out"}));
   app.add_option("--jobs", jobs, "scenes replayed at once (one thread each)")->capture_default_str()->check(CLI::Range(1, 16));
@@ -129,6 +130,9 @@ int main(int argc, char** argv) {
   app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();
   app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
+  app.add_option("--fusion-bar", replay.server.place.fusion_min_score_ratio,
+                 "map matching's share of the loop score bar (server option place.fusion_min_score_ratio)")
+      ->capture_default_str();
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   CLI11_PARSE(app, argc, argv);
@@ -151,7 +155,6 @@ int main(int argc, char** argv) {
     return 2;
   }
   const auto vocab = std::make_shared<const ccm::Vocabulary>(std::move(*loaded));
-  ccm::replay::ReplayOptions replay;
   replay.agent_vocabulary = vocab;
   replay.map_sharing = !no_sharing;
   replay.progress_period_s = 1e9;

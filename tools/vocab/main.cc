@@ -1,6 +1,8 @@
 // ccm_vocab: train, inspect and try out bag-of-words vocabularies.
 //   ccm_vocab train --dataset DIR [--format auto|euroc|tum|kitti] --out FILE [--k 10 --levels 6]
 //   ccm_vocab train --sim hall3 --sim repeated --out FILE --levels 5 --max-images 300
+//   ccm_vocab train --dataset A --dataset B --sim gen:5001 --sim gen:5002 --out FILE
+//   ccm_vocab train-default --out FILE   (the build's default; --shared-data DIR for ablations)
 //   ccm_vocab info FILE
 //   ccm_vocab query --vocab FILE --images a.png b.png c.png
 //   ccm_vocab convert --dbow2-text ORBvoc.txt --out orb.ccmvoc
@@ -14,6 +16,7 @@
 
 #include "slam_core/io/dataset.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
+#include "tools/vocab/default_vocabulary.h"
 #include "tools/vocab/vocab_training.h"
 
 namespace {
@@ -38,52 +41,34 @@ class ProgressLine {
 };
 
 struct TrainArgs {
-  std::string dataset, format = "auto", out;
-  std::vector<std::string> sim;
+  std::vector<std::string> datasets, sim;
+  std::string format = "auto", out;
   ccm::VocabularyOptions vocab;
   std::int64_t max_images = 2000;
   int features = 1000;
+  int threads = 0;
 };
 
-// Extracts the training descriptors from the dataset or the simulator; empty string or error.
-std::string CollectImages(const TrainArgs& args, std::vector<std::vector<ccm::OrbDescriptor>>* images) {
-  ccm::vocab::CollectOptions collect;
-  collect.max_images = args.max_images;
-  collect.orb.num_features = args.features;
+// Extracts the training descriptors from all sources; empty string or error.
+std::string CollectImages(const ccm::vocab::TrainingSources& sources, const ccm::vocab::CollectOptions& collect,
+                          std::vector<std::vector<ccm::OrbDescriptor>>* images) {
   ProgressLine line;
   auto progress = [&line](std::int64_t done, std::int64_t total) {
     if (!line.Due(done == total)) return;
     std::fprintf(stderr, "\rextracting ORB: %lld / %lld images", static_cast<long long>(done),
                  static_cast<long long>(total));
   };
-  std::string error;
-  if (!args.sim.empty()) {
-    error = ccm::vocab::CollectSimDescriptors(args.sim, collect, images, progress);
-  } else {
-    const auto format = ccm::ParseDatasetFormat(args.format);
-    if (!format) return "unknown --format " + args.format + " (auto, euroc, tum, kitti)";
-    ccm::IoStatus status;
-    auto source = ccm::OpenDataset(args.dataset, *format, &status);
-    if (!source) return status.message();
-    error = ccm::vocab::CollectDescriptors(source.get(), collect, images, progress);
-  }
+  const std::string error = ccm::vocab::CollectTrainingDescriptors(sources, collect, images, progress);
   std::fprintf(stderr, "\n");
   return error;
 }
 
-int Train(const TrainArgs& args) {
-  if (args.dataset.empty() == args.sim.empty()) {
-    std::fprintf(stderr, "train: give exactly one of --dataset or --sim\n");
-    return 2;
-  }
-  const std::string problem = args.vocab.Validate();
-  if (!problem.empty()) {
-    std::fprintf(stderr, "train: %s\n", problem.c_str());
-    return 2;
-  }
+// Collects, trains and saves; prints progress and timings to stderr.
+int TrainAndSave(const ccm::vocab::TrainingSources& sources, const ccm::vocab::CollectOptions& collect,
+                 const ccm::VocabularyOptions& options, const std::string& out) {
   std::vector<std::vector<ccm::OrbDescriptor>> images;
   const auto t0 = Clock::now();
-  std::string error = CollectImages(args, &images);
+  std::string error = CollectImages(sources, collect, &images);
   if (!error.empty()) {
     std::fprintf(stderr, "train: %s\n", error.c_str());
     return 1;
@@ -95,19 +80,62 @@ int Train(const TrainArgs& args) {
   const auto t1 = Clock::now();
   ProgressLine line;
   const ccm::Vocabulary vocab =
-      ccm::Vocabulary::Train(images, args.vocab, [&line](const ccm::TrainingProgress& p) {
+      ccm::Vocabulary::Train(images, options, [&line](const ccm::TrainingProgress& p) {
         if (!line.Due(p.fraction >= 1.0)) return;
         std::fprintf(stderr, "\r%-10s %5.1f %%", p.stage.c_str(), 100.0 * p.fraction);
       });
   std::fprintf(stderr, "\ntrained k=%d L=%d: %zu words, %zu nodes in %.1f s\n", vocab.branching(),
                vocab.levels(), vocab.num_words(), vocab.num_nodes(), SecondsSince(t1));
-  error = ccm::SaveVocabularyFile(vocab, args.out);
+  error = ccm::SaveVocabularyFile(vocab, out);
   if (!error.empty()) {
     std::fprintf(stderr, "train: %s\n", error.c_str());
     return 1;
   }
-  std::printf("wrote %s\n", args.out.c_str());
+  std::printf("wrote %s\n", out.c_str());
   return 0;
+}
+
+int Train(const TrainArgs& args) {
+  if (args.datasets.empty() && args.sim.empty()) {
+    std::fprintf(stderr, "train: give at least one --dataset or --sim\n");
+    return 2;
+  }
+  const std::string problem = args.vocab.Validate();
+  if (!problem.empty()) {
+    std::fprintf(stderr, "train: %s\n", problem.c_str());
+    return 2;
+  }
+  ccm::vocab::TrainingSources sources;
+  sources.datasets = args.datasets;
+  sources.scenarios = args.sim;
+  const auto format = ccm::ParseDatasetFormat(args.format);
+  if (!format) {
+    std::fprintf(stderr, "train: unknown --format %s (auto, euroc, tum, kitti)\n", args.format.c_str());
+    return 1;
+  }
+  sources.format = *format;
+  ccm::vocab::CollectOptions collect;
+  collect.max_images = args.max_images;
+  collect.orb.num_features = args.features;
+  collect.threads = args.threads;
+  return TrainAndSave(sources, collect, args.vocab, args.out);
+}
+
+// The build's default vocabulary (default_vocabulary.h): says which sources it uses.
+int TrainDefault(const std::string& shared_data, const std::string& out, int threads) {
+  const ccm::vocab::DefaultVocabularySpec spec = ccm::vocab::MakeDefaultVocabularySpec(shared_data);
+  if (!shared_data.empty() && spec.sources.datasets.empty()) {
+    std::fprintf(stderr, "default vocabulary: no real sequences under '%s': simulator scenes only\n",
+                 shared_data.c_str());
+  }
+  std::fprintf(stderr, "default vocabulary: %zu simulator scenes, %zu real sequences; same as\n  %s\n",
+               spec.sources.scenarios.size(), spec.sources.datasets.size(),
+               ccm::vocab::DescribeAsCommand(spec).c_str());
+  ccm::vocab::CollectOptions collect;
+  collect.max_images = spec.max_images;
+  collect.orb.num_features = spec.features;
+  collect.threads = threads;
+  return TrainAndSave(spec.sources, collect, spec.vocabulary, out);
 }
 
 int Convert(const std::string& in, const std::string& out) {
@@ -198,15 +226,18 @@ int main(int argc, char** argv) {
 
   TrainArgs train;
   auto* t = app.add_subcommand("train", "train a vocabulary from a dataset or simulator scenes");
-  t->add_option("--dataset", train.dataset, "dataset folder (EuRoC, TUM RGB-D, KITTI)");
+  t->add_option("--dataset", train.datasets, "dataset folder (EuRoC, TUM RGB-D, KITTI; repeatable)");
   t->add_option("--format", train.format, "auto, euroc, tum, kitti")->capture_default_str();
   t->add_option("--sim", train.sim,
-                ccm::vocab::HaveSimulator() ? "simulator scenario (repeatable): hall3, disjoint2, repeated or YAML"
+                ccm::vocab::HaveSimulator() ? "simulator scenario (repeatable): hall3, disjoint2, repeated, gen:SEED or YAML"
                                             : "simulator scenario (not available in this build)");
   t->add_option("--out", train.out, "output vocabulary file")->required();
   t->add_option("--k", train.vocab.branching, "branching factor")->capture_default_str();
   t->add_option("--levels", train.vocab.levels, "tree depth L")->capture_default_str();
-  t->add_option("--max-images", train.max_images, "images used, spread over the input (0 = all)")
+  t->add_option("--max-images", train.max_images,
+                "images used (0 = all), split evenly over the sources: each --dataset folder and all "
+                "--sim scenarios together (over their agents); a short dataset gives all its frames "
+                "and leaves the rest to the others")
       ->capture_default_str();
   t->add_option("--max-descriptors", train.vocab.max_descriptors,
                 "descriptors clustered (subsampled above this; 0 = all)")->capture_default_str();
@@ -214,6 +245,18 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   t->add_option("--features", train.features, "ORB features per image")->capture_default_str();
   t->add_option("--seed", train.vocab.seed, "random seed")->capture_default_str();
+  t->add_option("--threads", train.threads, "threads rendering / extracting ORB (0 = all cores; same result)")
+      ->capture_default_str();
+
+  std::string default_data, default_out;
+  int default_threads = 0;
+  auto* d = app.add_subcommand("train-default", "train the build's default vocabulary (docs/place-recognition.md)");
+  d->add_option("--shared-data", default_data,
+                "ablation: also train on the real excerpts in this folder (kitti07_first160, ntsd150_euroc); "
+                "not the build's default");
+  d->add_option("--out", default_out, "output vocabulary file")->required();
+  d->add_option("--threads", default_threads, "threads rendering / extracting ORB (0 = all cores; same result)")
+      ->capture_default_str();
 
   std::string info_path;
   auto* i = app.add_subcommand("info", "print a vocabulary's parameters and load time");
@@ -234,6 +277,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   if (*t) return Train(train);
+  if (*d) return TrainDefault(default_data, default_out, default_threads);
   if (*c) return Convert(convert_in, convert_out);
   if (*i) return Info(info_path);
   return Query(query_vocab, query_images, query_features);

@@ -6,10 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <iterator>
 #include <random>
 
 #include "slam_core/place_recognition/keyframe_database.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
+#include "slam_core/io/dataset.h"
+#include "tests/slam_core/place_recognition/retrieval_eval.h"
 #include "tests/slam_core/place_recognition/sim_keyframes.h"
 
 namespace ccm::test {
@@ -197,6 +201,105 @@ void BenchPrecisionRecall(const std::vector<SimKeyframe>& kfs, const std::string
   }
 }
 
+struct NamedVocabulary {
+  std::string path;
+  Vocabulary vocab;
+};
+
+void PrintStats(const char* label, const std::string& vocab, const RetrievalStats& st, bool verified) {
+  std::vector<double> ms = st.query_ms;
+  std::sort(ms.begin(), ms.end());
+  std::printf("  %-14s %-44s %5d kf %5d queries  top-1 %.3f  top-3 %.3f", label, vocab.c_str(), st.keyframes,
+              st.queries, st.RecallTop1(), st.RecallTopK());
+  if (verified) {
+    std::printf("  verified %.3f (%d right, %d wrong)", st.queries ? double(st.queries_verified) / st.queries : 0.0,
+                st.verified_correct, st.verified_wrong);
+  }
+  std::printf("  query median %.2f ms\n", ms.empty() ? 0.0 : ms[ms.size() / 2]);
+}
+
+// Held-out generated scenes, all in one database (each scene a distractor for the others):
+// rendered once, transformed with every vocabulary.
+std::vector<SimKeyframe> BenchHeldOut(const std::vector<NamedVocabulary>& vocabs, std::uint64_t first,
+                                      std::uint64_t last, double spacing_s, int levels_up) {
+  std::vector<SimKeyframe> kfs;
+  auto t0 = Clock::now();
+  for (std::uint64_t seed = first; seed <= last; ++seed) {
+    const std::string error =
+        MakeScenarioKeyframes("gen:" + std::to_string(seed), vocabs[0].vocab, spacing_s, static_cast<int>(seed), &kfs);
+    if (!error.empty()) std::fprintf(stderr, "%s\n", error.c_str());
+  }
+  std::printf("held-out generated scenes gen:%llu..%llu: %zu keyframes (one every %.2f s) rendered in %.0f s\n",
+              static_cast<unsigned long long>(first), static_cast<unsigned long long>(last), kfs.size(), spacing_s,
+              Ms(t0) / 1e3);
+  RetrievalOptions options;
+  options.verify = true;
+  for (const auto& v : vocabs) {
+    TransformKeyframes(v.vocab, levels_up, &kfs);
+    RetrievalStats all;
+    for (std::uint64_t seed = first; seed <= last; ++seed) {
+      options.query_scene = static_cast<int>(seed);
+      const RetrievalStats st = ScoreRetrieval(kfs, v.vocab.num_words(), options);
+      all.Add(st);
+      PrintStats(("gen:" + std::to_string(seed)).c_str(), v.path, st, true);
+    }
+    all.keyframes = static_cast<int>(kfs.size());
+    PrintStats("all", v.path, all, true);
+  }
+  return kfs;
+}
+
+// The real excerpts: no revisits inside them, so every frame queries the frames at least
+// min_gap_s away; a true match is within revisit_dist_m and 30 deg (ground truth). The other
+// sequence and `distractors` (simulator keyframes) share the database.
+struct RealSequence {
+  const char* folder;
+  const char* ground_truth;  ///< relative to the folder; "" = the reader's own
+  double min_gap_s, dist_m;
+};
+// Gaps and distances where the nearest allowed frames are true matches for almost every
+// query (KITTI: 159 of 160; NTSD: 144 of 150) but far enough to need some viewpoint
+// invariance; at 2 s / 15 m on KITTI the views share too little for any vocabulary.
+constexpr RealSequence kRealSequences[] = {
+    {"kitti07_first160", "poses_07_first160_kitti.txt", 1.0, 10.0},  // 10 Hz, 0.1-0.85 m/frame
+    {"ntsd150_euroc", "", 0.5, 1.0},                                   // 30 Hz, 3.8 m in 150 frames
+};
+
+void BenchReal(const std::vector<NamedVocabulary>& vocabs, const std::string& data_dir,
+               std::vector<SimKeyframe> distractors) {
+  std::vector<SimKeyframe> kfs = std::move(distractors);
+  const std::size_t num_distractors = kfs.size();
+  int scene = -1;
+  for (const auto& seq : kRealSequences) {
+    DatasetOptions o;
+    o.path = data_dir + "/" + seq.folder;
+    if (*seq.ground_truth) o.ground_truth_path = o.path + "/" + seq.ground_truth;
+    IoStatus status;
+    auto source = OpenDataset(o, &status);
+    if (!source) {
+      std::printf("real sequence %s: not available (%s)\n", seq.folder, status.message().c_str());
+      continue;
+    }
+    const std::string error = MakeDatasetKeyframes(source.get(), vocabs[0].vocab, 1000, scene--, &kfs);
+    if (!error.empty()) std::printf("real sequence %s: %s\n", seq.folder, error.c_str());
+  }
+  std::printf("real sequences: %zu frames, %zu simulator distractors in the database\n",
+              kfs.size() - num_distractors, num_distractors);
+  std::vector<SimKeyframe> alone(kfs.begin() + static_cast<std::ptrdiff_t>(num_distractors), kfs.end());
+  for (const auto& v : vocabs) {
+    TransformKeyframes(v.vocab, -1, &kfs);
+    TransformKeyframes(v.vocab, -1, &alone);
+    for (int s = 0; s < static_cast<int>(std::size(kRealSequences)); ++s) {
+      RetrievalOptions options;
+      options.query_scene = -1 - s;
+      options.min_gap_s = kRealSequences[s].min_gap_s;
+      options.revisit_dist_m = options.hit_dist_m = kRealSequences[s].dist_m;
+      PrintStats(kRealSequences[s].folder, v.path, ScoreRetrieval(alone, v.vocab.num_words(), options), false);
+      PrintStats("+distractors", v.path, ScoreRetrieval(kfs, v.vocab.num_words(), options), false);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ccm::test
 
@@ -206,15 +309,47 @@ int main(int argc, char** argv) {
   CLI::App app{"bench_place_recognition: vocabulary, database and verification timings, precision/recall"};
   std::string scenario = "hall3";
   std::int64_t stride = 8;
-  int num_keyframes = 5000;
-  bool big_vocab = true;
+  int num_keyframes = 5000, levels_up = -1;
+  bool big_vocab = true, timings = true;
+  std::vector<std::string> vocab_paths;
+  std::string heldout, real_data;
+  double spacing_s = 0.5;
   app.add_option("--scenario", scenario, "simulator scenario")->capture_default_str();
   app.add_option("--stride", stride, "keyframe every n-th frame")->capture_default_str();
   app.add_option("--keyframes", num_keyframes, "database size for timings")->capture_default_str();
   app.add_flag("!--no-big-vocab", big_vocab, "skip the synthetic k=10 L=6 load test");
+  app.add_option("--vocab", vocab_paths, "vocabularies to measure (repeatable; default: the build's default)");
+  app.add_option("--heldout", heldout, "recall on generated scenes FIRST-LAST (e.g. 7001-7010), never trained on");
+  app.add_option("--spacing", spacing_s, "held-out keyframe spacing [s]")->capture_default_str();
+  app.add_option("--levels-up", levels_up, "direct index levels up for verification (-1: depth 2)")
+      ->capture_default_str();
+  app.add_option("--real-data", real_data, "folder with kitti07_first160 / ntsd150_euroc: recall on real frames");
+  app.add_flag("!--no-timings", timings, "skip the timing and hall3 precision part");
   CLI11_PARSE(app, argc, argv);
 
-  BenchLoad(CCM_SIM_VOCAB_FILE, "simulator k=10 L=5");
+  if (vocab_paths.empty()) vocab_paths.push_back(CCM_DEFAULT_VOCAB_FILE);
+  std::vector<NamedVocabulary> vocabs;
+  for (const auto& p : vocab_paths) {
+    std::string error;
+    auto v = LoadVocabularyFile(p, &error);
+    if (!v) {
+      std::fprintf(stderr, "%s: %s\n", p.c_str(), error.c_str());
+      return 1;
+    }
+    vocabs.push_back({std::filesystem::path(p).filename().string(), std::move(*v)});
+  }
+  std::vector<SimKeyframe> heldout_kfs;
+  if (!heldout.empty()) {
+    unsigned long long first = 0, last = 0;
+    if (std::sscanf(heldout.c_str(), "%llu-%llu", &first, &last) != 2 || last < first) {
+      std::fprintf(stderr, "--heldout FIRST-LAST\n");
+      return 1;
+    }
+    heldout_kfs = BenchHeldOut(vocabs, first, last, spacing_s, levels_up);
+  }
+  if (!real_data.empty()) BenchReal(vocabs, real_data, std::move(heldout_kfs));
+  if (!timings) return 0;
+  BenchLoad(vocab_paths[0], vocabs[0].path.c_str());
   if (big_vocab) {
     const auto t0 = Clock::now();
     const Vocabulary big = SyntheticVocabulary(10, 6);
@@ -226,7 +361,7 @@ int main(int argc, char** argv) {
       std::remove(path.c_str());
     }
   }
-  const Vocabulary& vocab = SimVocabulary();
+  const Vocabulary& vocab = vocabs[0].vocab;
   std::string error;
   auto s = sim::LoadScenario(scenario, &error);
   if (!s) {
@@ -247,8 +382,9 @@ int main(int argc, char** argv) {
   t0 = Clock::now();
   BowVector bow;
   FeatureVector fv;
-  for (const auto& kf : kfs) vocab.Transform(kf.view.features.descriptors, &bow, &fv, 3);
-  std::printf("BoW transform (1000 ORB, k=10 L=5, with direct index): %.3f ms/image\n", Ms(t0) / kfs.size());
+  for (const auto& kf : kfs) vocab.Transform(kf.view.features.descriptors, &bow, &fv, vocab.levels() - 2);
+  std::printf("BoW transform (1000 ORB, k=%d L=%d, with direct index): %.3f ms/image\n", vocab.branching(),
+              vocab.levels(), Ms(t0) / kfs.size());
   BenchDatabase(kfs, vocab.num_words(), num_keyframes);
   BenchPrecisionRecall(kfs, scenario, vocab.num_words());
   return 0;

@@ -16,7 +16,7 @@ TEST(MapAdapterTest, KeyframeOfAMapVerifiesAgainstItsSnapshot) {
   ASSERT_TRUE(s) << error;
   SimKeyframeOptions o;
   o.stride = 400;
-  const std::vector<SimKeyframe> kfs = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
+  const std::vector<SimKeyframe> kfs = MakeSimKeyframes(*s, 0, DefaultVocabulary(), o);
   ASSERT_GE(kfs.size(), 2u);
   const SimKeyframe& snap = kfs[0];
 
@@ -40,7 +40,8 @@ TEST(MapAdapterTest, KeyframeOfAMapVerifiesAgainstItsSnapshot) {
   ASSERT_GT(num_points, 100);
 
   BowVector bow;
-  const VerificationView view = MakeVerificationView(*kf, map, SimVocabulary(), 3, &bow);
+  const int levels_up = DefaultVocabulary().levels() - 2;  // as MakeSimKeyframes: depth 2
+  const VerificationView view = MakeVerificationView(*kf, map, DefaultVocabulary(), levels_up, &bow);
   EXPECT_EQ(bow.entries, snap.bow.entries);
   ASSERT_EQ(view.points_cam.size(), snap.view.points_cam.size());
   for (std::size_t i = 0; i < view.points_cam.size(); ++i) {

@@ -1,12 +1,13 @@
 #include "tests/slam_core/place_recognition/sim_keyframes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <random>
 #include <stdexcept>
 
-#include "tools/vocab/vocab_training.h"
+#include "tools/vocab/default_vocabulary.h"
 
 namespace ccm::test {
 
@@ -31,7 +32,8 @@ std::vector<SimKeyframe> MakeSimKeyframes(const sim::Simulation& sim, int agent,
     kf.view.camera = camera;
     kf.view.pyramid = extractor.pyramid();
     kf.view.features = extractor.Extract(sim.RenderFrame(agent, i));
-    vocab.Transform(kf.view.features.descriptors, &kf.bow, &kf.view.feature_vector, options.levels_up);
+    const int levels_up = options.levels_up >= 0 ? options.levels_up : std::max(0, vocab.levels() - 2);
+    vocab.Transform(kf.view.features.descriptors, &kf.bow, &kf.view.feature_vector, levels_up);
     const SE3 cam_from_world = kf.world_from_cam.inverse();
     const double nan = std::numeric_limits<double>::quiet_NaN();
     kf.view.points_cam.assign(kf.view.features.size(), Eigen::Vector3d::Constant(nan));
@@ -68,11 +70,12 @@ void Sim3Error(const Sim3& estimate, const Sim3& truth, double query_scale, doub
   *rot_deg = estimate.rotation().angularDistance(truth.rotation()) * 180.0 / M_PI;
 }
 
-const Vocabulary& SimVocabulary() {
+const Vocabulary& DefaultVocabulary() {
   static const Vocabulary vocab = [] {
     std::string error;
-    auto v = vocab::LoadOrTrainSimVocabulary(CCM_SIM_VOCAB_FILE, vocab::SimVocabularySpec(), &error);
-    if (!v) throw std::runtime_error("simulator vocabulary: " + error);
+    auto v = vocab::LoadOrTrainDefaultVocabulary(
+        CCM_DEFAULT_VOCAB_FILE, vocab::MakeDefaultVocabularySpec(), &error);
+    if (!v) throw std::runtime_error("default vocabulary: " + error);
     return std::move(*v);
   }();
   return vocab;

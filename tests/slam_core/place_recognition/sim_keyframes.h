@@ -17,6 +17,7 @@
 namespace ccm::test {
 
 struct SimKeyframe {
+  int scene = 0;            ///< keyframes of different scenes never show the same place
   int agent = 0;
   std::int64_t index = 0;   ///< frame index of the agent
   double time_s = 0.0;
@@ -34,7 +35,7 @@ struct SimKeyframeOptions {
   double point_fraction = 0.6;       ///< keypoints that get a map point
   double depth_noise = 0.01;         ///< relative depth noise (1 sigma)
   double map_scale = 1.0;
-  int levels_up = 3;                 ///< direct index level = L - levels_up
+  int levels_up = -1;                ///< direct index level = L - levels_up; -1: depth 2 (ORB-SLAM's)
   std::uint64_t seed = 1;
 };
 
@@ -53,7 +54,8 @@ Sim3 TrueQueryFromCandidate(const SimKeyframe& candidate, const SimKeyframe& que
 void Sim3Error(const Sim3& estimate, const Sim3& truth, double query_scale, double* trans_m,
                double* rot_deg);
 
-/// The simulator vocabulary (build-tree cache from CMake, trained here if missing).
-const Vocabulary& SimVocabulary();
+/// The default vocabulary (build-tree file from CMake, trained here with the same spec if
+/// missing; tools/vocab/default_vocabulary.h).
+const Vocabulary& DefaultVocabulary();
 
 }  // namespace ccm::test

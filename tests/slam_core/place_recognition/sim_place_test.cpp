@@ -45,7 +45,7 @@ struct Scene {
 
 Scene BuildScene(const sim::Simulation& s, std::int64_t stride, const std::vector<double>& scales) {
   Scene scene;
-  const Vocabulary& vocab = SimVocabulary();
+  const Vocabulary& vocab = DefaultVocabulary();
   scene.db = std::make_unique<KeyframeDatabase>(vocab.num_words());
   for (int a = 0; a < s.num_agents(); ++a) {
     SimKeyframeOptions o;
@@ -210,7 +210,7 @@ TEST(SimPlaceRecognitionTest, RepeatedAliasedPairsRejected) {
 void RunCrossCamera(const CameraIntrinsics& camera, const char* label) {
   auto pinhole = MakeSim("hall3");
   auto other = MakeSim("hall3", &camera, pinhole->world());
-  const Vocabulary& vocab = SimVocabulary();
+  const Vocabulary& vocab = DefaultVocabulary();
   KeyframeDatabase db(vocab.num_words());
   SimKeyframeOptions o;
   o.stride = 16;
@@ -261,8 +261,8 @@ TEST(GeometricVerificationTest, RejectsInvalidInputAndUnrelatedViews) {
   SimKeyframeOptions o;
   o.stride = 600;
   o.max_keyframes = 1;
-  const auto a = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
-  const auto b = MakeSimKeyframes(*s, 1, SimVocabulary(), o);
+  const auto a = MakeSimKeyframes(*s, 0, DefaultVocabulary(), o);
+  const auto b = MakeSimKeyframes(*s, 1, DefaultVocabulary(), o);
   ASSERT_FALSE(a.empty());
   ASSERT_FALSE(b.empty());
   r = VerifyPlace(a[0].view, b[0].view);
@@ -286,10 +286,10 @@ TEST(GeometricVerificationTest, ReprojectionRefinementRecoversPerturbedSim3) {
   o.stride = 10;
   o.offset = 200;
   o.max_keyframes = 2;
-  const auto a = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
+  const auto a = MakeSimKeyframes(*s, 0, DefaultVocabulary(), o);
   o.map_scale = 2.0;
   o.seed = 9;
-  const auto b = MakeSimKeyframes(*s, 0, SimVocabulary(), o);
+  const auto b = MakeSimKeyframes(*s, 0, DefaultVocabulary(), o);
   const SimKeyframe& c = a[0];
   const SimKeyframe& q = b[1];  // 10 frames later, another map scale
   const VerificationResult r = VerifyPlace(c.view, q.view);

@@ -192,6 +192,12 @@ TEST(ServerScenario, RepeatedFusionsAgreeWithGroundTruth) {
   std::printf("  repeated: %d fusions, %lld candidates verified, %lld inconsistent detections dropped\n", fusions,
               static_cast<long long>(backend.stats().place.verified),
               static_cast<long long>(backend.stats().place.inconsistent));
+  std::printf("  fusion candidates (%lld) stopped at:", static_cast<long long>(backend.stats().place.match_candidates));
+  for (int s = 0; s < kNumVerificationStages; ++s) {
+    std::printf(" %s %lld", VerificationStageName(static_cast<VerificationStage>(s)),
+                static_cast<long long>(backend.stats().place.fusion_stopped_at[s]));
+  }
+  std::printf("\n");
   EXPECT_GE(fusions, 1) << "the two aisles overlap: one correct fusion is expected";
   // No aliased loop either: an accepted false loop (the identical crate one row on) bends
   // the agent's own trajectory by metres; true loops keep it within a fraction of 1 %.

@@ -1,0 +1,97 @@
+// vo_trace: one simulated agent through the VO, one line per frame, to find where and why
+// tracking degrades: state, pose-optimization inliers, keyframes, segment, and the error of
+// the motion over the last second against ground truth (rotation, and translation direction
+// since monocular scale is unknown). Not a test; a diagnosis tool.
+//   vo_trace --scenario gen:3 --agent 0 [--from 50 --to 120]
+#include <cmath>
+#include <cstdio>
+#include <deque>
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Geometry>
+
+#include "slam_core/place_recognition/vocabulary_io.h"
+#include "tests/slam_core/vo/vo_sim_run.h"
+
+namespace {
+
+struct Sample {
+  int64_t index;
+  ccm::SE3 gt, est;
+};
+
+double AngleDeg(const Eigen::Quaterniond& q) { return Eigen::AngleAxisd(q).angle() * 180.0 / M_PI; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"vo_trace: per-frame VO diagnosis on a simulated agent"};
+  std::string scenario = "hall3", vocab_path = CCM_DEFAULT_VOCABULARY;
+  int agent = 0;
+  int64_t from = 0, to = -1;
+  app.add_option("--scenario", scenario, "built-in, gen:SEED or YAML")->capture_default_str();
+  app.add_option("--agent", agent, "agent index")->capture_default_str();
+  app.add_option("--from", from, "first frame to print")->capture_default_str();
+  app.add_option("--to", to, "last frame to run (-1: all)")->capture_default_str();
+  app.add_option("--vocab", vocab_path, "relocalization vocabulary ('none': brute force)")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  std::string error;
+  const auto sim = ccm::testing::LoadSimulation(scenario, &error);
+  if (!sim) {
+    std::fprintf(stderr, "vo_trace: %s\n", error.c_str());
+    return 2;
+  }
+  std::shared_ptr<const ccm::Vocabulary> vocab;
+  if (vocab_path != "none") {
+    auto v = ccm::LoadVocabularyFile(vocab_path, &error);
+    if (!v) {
+      std::fprintf(stderr, "vo_trace: %s\n", error.c_str());
+      return 2;
+    }
+    vocab = std::make_shared<const ccm::Vocabulary>(std::move(*v));
+  }
+  ccm::sim::SimFrameSource source(sim, agent, 0, 1, to >= 0 ? to + 1 : -1);
+  std::shared_ptr<const ccm::CameraModel> camera(ccm::MakeCamera(source.intrinsics()));
+  ccm::AckAll acks;  // standalone, as ccm_agent --standalone
+  ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, ccm::VoOptions{}, &acks, true, vocab);
+  const double rate = sim->scenario().agents.at(agent).rate_hz;
+  std::deque<Sample> window;  // tracked frames of the last second
+  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg\n");
+  int64_t index = 0;
+  while (auto frame = source.Next()) {
+    const ccm::TrackingResult r = vo.TrackFrame(*frame);
+    const ccm::SE3 gt = *frame->world_from_cam_gt;
+    double rot_err = -1, dir_err = -1;
+    if (r.world_from_cam) {
+      window.push_back({index, gt, *r.world_from_cam});
+      while (!window.empty() && window.front().index < index - static_cast<int64_t>(rate)) window.pop_front();
+      const Sample& old = window.front();
+      if (old.index < index) {
+        const ccm::SE3 d_gt = old.gt.inverse() * gt, d_est = old.est.inverse() * *r.world_from_cam;
+        rot_err = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
+        if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
+          dir_err = std::acos(std::clamp(d_gt.translation().normalized().dot(d_est.translation().normalized()), -1.0, 1.0)) *
+                    180.0 / M_PI;
+        }
+      }
+    } else {
+      window.clear();
+    }
+    const double t = index / rate;
+    const ccm::sim::Trajectory& traj = sim->trajectory(agent);
+    const double speed = traj.Velocity(t).norm();
+    const ccm::SE3 a = traj.WorldFromCam(std::max(0.0, t - 0.05)), b = traj.WorldFromCam(t + 0.05);
+    const double yaw_rate = AngleDeg(a.rotation().conjugate() * b.rotation()) / 0.1;
+    if (index >= from) {
+      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f\n", static_cast<long long>(index), t,
+                  ccm::TrackingStateName(r.state), r.inliers, r.new_keyframe ? "KF" : "", 
+                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err);
+    }
+    ++index;
+  }
+  const auto s = vo.stats();
+  std::printf("frames %lld tracked %lld segments %d relocalizations %lld keyframes %lld\n",
+              static_cast<long long>(s.frames), static_cast<long long>(s.frames_tracked), s.segments,
+              static_cast<long long>(s.relocalizations), static_cast<long long>(s.keyframes_created));
+  return 0;
+}
