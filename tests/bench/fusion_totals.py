@@ -31,7 +31,7 @@ def totals(scenes):
     to_fusion, pr_ms, ratios, spreads = [], [], [], []
     by_kind = defaultdict(lambda: [0, 0])
     for s in scenes:
-        for p in s["pairs"]:
+        for p in s.get("pairs", []):
             if not p["qualifies"]:
                 continue
             t["q"] += 1
@@ -41,15 +41,15 @@ def totals(scenes):
                 by_kind[p["kind"]][0] += 1
                 if p["seconds_to_fusion"] >= 0:
                     to_fusion.append(p["seconds_to_fusion"])
-        t["ff"] += sum(f["wrong"] for f in s["fusions"])
-        t["fl"] += sum(l["wrong"] for l in s["loops"])
-        for a in s["agent_vo"]:
+        t["ff"] += sum(f["wrong"] for f in s.get("fusions", []))
+        t["fl"] += sum(l["wrong"] for l in s.get("loops", []))
+        for a in s.get("agent_vo", []):
             t["agents"] += 1
             t["rev"] += a["revisits"]
             t["rev_loop"] += a["revisits"] and a["loops"] > 0
             t["good_vo"] += 0 <= a["ate_path_pct"] <= 1.0 and a["tracked"] > 0.9
             t["tracked_full"] += a["tracked"] >= 0.99
-        fused = [m for m in s["maps"] if len(m["agents"]) > 1 and m["joint_ate_m"] >= 0 and m["mean_standalone_ate_m"] > 0]
+        fused = [m for m in s.get("maps", []) if len(m["agents"]) > 1 and m["joint_ate_m"] >= 0 and m["mean_standalone_ate_m"] > 0]
         if fused:
             worst = max(m["joint_ate_m"] / m["mean_standalone_ate_m"] for m in fused)
             spread = max(m["scale_spread"] for m in fused)
