@@ -36,13 +36,12 @@ double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return Eigen::AngleAxisd(a.conjugate() * b).angle() * 180.0 / M_PI;
 }
 
-}  // namespace
-
-namespace {
+// vocabulary_levels_up = -1 (automatic): depth 2 of the loaded vocabulary.
 PlaceMatchingOptions Resolved(PlaceMatchingOptions o, const Vocabulary& vocabulary) {
   if (o.vocabulary_levels_up < 0) o.vocabulary_levels_up = std::max(0, vocabulary.levels() - 2);
   return o;
 }
+
 }  // namespace
 
 PlaceMatcher::PlaceMatcher(std::shared_ptr<const Vocabulary> vocabulary, const PlaceMatchingOptions& options,
@@ -107,9 +106,7 @@ std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
   if (!found && stack_->num_maps() > 1) {
     QueryFilter f;
     f.exclude_maps = {q.map};
-    CandidateOptions fopt = copt;
-    fopt.min_score *= options_.fusion_min_score_ratio;
-    const auto cands = database_.DetectCandidates(q.bow, f, fopt, covis);
+    const auto cands = database_.DetectCandidates(q.bow, f, copt, covis);
     Bump(&PlaceMatcherStats::match_candidates, static_cast<int64_t>(cands.size()));
     found = TryCandidates(q, cands, PlaceDetection::Kind::kFusion);
   }

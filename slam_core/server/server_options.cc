@@ -31,7 +31,6 @@ std::string ServerMappingOptions::Validate() const {
 }
 
 std::string PlaceMatchingOptions::Validate() const {
-  if (!(fusion_min_score_ratio >= 0.0 && fusion_min_score_ratio <= 1.0)) return "place.fusion_min_score_ratio must be in [0, 1]";
   if (auto e = candidates.Validate(); !e.empty()) return "place.candidates: " + e;
   if (auto e = verification.Validate(); !e.empty()) return "place.verification: " + e;
   if (vocabulary_levels_up < -1) return "place.vocabulary_levels_up must be >= 0, or -1 (automatic)";

@@ -63,11 +63,6 @@ struct PlaceMatchingOptions {
   /// depth 2 of whatever vocabulary is loaded (ORB-SLAM's choice), so a deeper default
   /// vocabulary needs no second setting.
   int vocabulary_levels_up = -1;
-  /// Map matching asks candidates of other maps to score at least this share of ORB-SLAM's
-  /// loop bar (the query's least similar covisible neighbour). Another agent sees the place
-  /// from elsewhere, often with another camera: its views score lower than the query's own
-  /// neighbours, and verification + consistency decide anyway. 1: the loop bar.
-  double fusion_min_score_ratio = 1.0;
   /// A map needs this many keyframes before loops inside it are searched.
   int loop_min_map_keyframes = 12;
   /// Two verified detections from different query keyframes must agree (temporal and

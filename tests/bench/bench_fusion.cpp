@@ -130,9 +130,6 @@ int main(int argc, char** argv) {
   app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();
   app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
-  app.add_option("--fusion-bar", replay.server.place.fusion_min_score_ratio,
-                 "map matching's share of the loop score bar (server option place.fusion_min_score_ratio)")
-      ->capture_default_str();
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   CLI11_PARSE(app, argc, argv);
