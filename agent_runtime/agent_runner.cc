@@ -16,7 +16,7 @@
 #include "slam_core/io/trajectory_io.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "agent_runtime/agent_comm.h"
-#include "runtime_common/install_paths.h"
+#include "slam_core/common/install_paths.h"
 #include "slam_core/vo/agent_vo.h"
 #ifdef CCM_AGENT_WITH_SIM
 #include "tests/sim/sim_frame_source.h"

@@ -4,7 +4,7 @@
 #   ccm-agent   ccm_agent, the onboard config template, ccm-agent@.service
 #   ccm-server  ccm_server, ccm_ctl, server.yaml (conffile), ccm-server.service
 #   ccm-tools   ccm_sim, ccm_eval, ccm_vocab, ccm_replay
-# Binaries find their data at <bindir>/../share/ccm-slam-dds (runtime_common/install_paths.h),
+# Binaries find their data at <bindir>/../share/ccm-slam-dds (slam_core/common/install_paths.h),
 # so any prefix works. Run-time library dependencies come from dpkg-shlibdeps.
 include(GNUInstallDirs)
 set(CCM_DATA_INSTALL_DIR share/ccm-slam-dds)  # must match rt::kInstallDataSubdir

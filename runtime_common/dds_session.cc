@@ -12,7 +12,7 @@
 #include <set>
 #include <fstream>
 
-#include "runtime_common/install_paths.h"
+#include "slam_core/common/install_paths.h"
 
 #ifndef CCM_QOS_DIR
 #define CCM_QOS_DIR "qos_profiles"

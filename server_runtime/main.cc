@@ -16,7 +16,7 @@
 #include <iostream>
 #include <thread>
 
-#include "runtime_common/install_paths.h"
+#include "slam_core/common/install_paths.h"
 #include "runtime_common/logging.h"
 #include "server_runtime/backend_runner.h"
 #include "server_runtime/map_view_server.h"

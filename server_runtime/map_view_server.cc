@@ -10,7 +10,7 @@
 // templates parsed after it.
 #include <httplib.h>
 
-#include "runtime_common/install_paths.h"
+#include "slam_core/common/install_paths.h"
 
 #ifndef CCM_MAP_VIEW_WEB_ROOT
 #define CCM_MAP_VIEW_WEB_ROOT ""

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
 namespace ccm::server {
 
@@ -105,9 +105,9 @@ nlohmann::json MapViewHostStatus(const ServerCommStats& comm, const std::vector<
 bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, const ServerCommStats& comm,
                         const std::vector<rt::TopicCountersSnapshot>& traffic, double wall_s, std::string* error) {
   // The live server has no ground truth: the report scores nothing and names the files.
-  replay::ReplayResult result;
+  report::RunResult result;
   for (const AgentId id : backend.agents()) {
-    replay::ReplayAgentResult a;
+    report::AgentRunResult a;
     a.name = "agent" + std::to_string(id);
     a.id = id;
     a.server_keyframes = backend.AgentTrajectory(id);
@@ -121,7 +121,7 @@ bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, co
   result.maps = backend.Maps();
   result.stats = backend.stats();
   result.wall_s = wall_s;
-  const replay::ReplayEvaluation ev = replay::EvaluateReplay(result);
+  const report::RunEvaluation ev = report::EvaluateRun(result);
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) {
@@ -129,7 +129,7 @@ bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, co
     return false;
   }
   // Without any map (no agent ever sent a keyframe) there is nothing to draw.
-  if (!result.maps.empty() && !replay::WriteReplayOutputs(dir, result, ev, backend, error)) return false;
+  if (!result.maps.empty() && !report::WriteRunOutputs(dir, result, ev, backend, error)) return false;
   std::ofstream out(dir + "/server.json");
   out << CommSummaryJson(comm, traffic, result.stats, 2) << "\n";
   if (!out) {

@@ -7,20 +7,10 @@
 #include <optional>
 #include <string>
 
-#include <opencv2/core/mat.hpp>
-
+#include "slam_core/feature/frame.h"
 #include "slam_core/geometry/camera.h"
-#include "slam_core/geometry/se3.h"
 
 namespace ccm {
-
-/// One monocular image with its timestamp; ground truth where the source knows it.
-struct Frame {
-  int64_t stamp_ns = 0;
-  cv::Mat image;  ///< 8-bit single channel (CV_8UC1)
-  std::optional<SE3> world_from_cam_gt;  ///< exact pose if known (simulator, datasets with GT)
-  std::string source_name;               ///< file path or "sim:<agent>:<index>", for messages
-};
 
 /// Pull-style frame source. Not thread-safe: one consumer thread owns it.
 class FrameSource {

@@ -4,8 +4,8 @@
 #include <set>
 #include <unordered_set>
 
+#include "slam_core/map_ops/point_fusion.h"
 #include "slam_core/server/map_correction.h"
-#include "slam_core/vo/point_fusion.h"
 
 namespace ccm {
 namespace {

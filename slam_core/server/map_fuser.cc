@@ -4,9 +4,9 @@
 #include <set>
 #include <unordered_set>
 
+#include "slam_core/map_ops/keyframe_matching.h"
+#include "slam_core/map_ops/point_fusion.h"
 #include "slam_core/solvers/similarity.h"
-#include "slam_core/vo/point_fusion.h"
-#include "slam_core/vo/vo_matching.h"
 
 namespace ccm {
 namespace {

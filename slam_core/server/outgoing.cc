@@ -3,8 +3,8 @@
 #include <set>
 #include <unordered_set>
 
+#include "slam_core/map_ops/point_fusion.h"
 #include "slam_core/server/registration.h"
-#include "slam_core/vo/point_fusion.h"
 
 namespace ccm {
 

@@ -6,8 +6,8 @@
 #include <set>
 
 #include "slam_core/map/near_duplicate.h"
-#include "slam_core/vo/map_bundle_adjustment.h"
-#include "slam_core/vo/point_fusion.h"
+#include "slam_core/map_ops/map_bundle_adjustment.h"
+#include "slam_core/map_ops/point_fusion.h"
 
 namespace ccm {
 

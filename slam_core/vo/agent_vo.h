@@ -17,7 +17,7 @@
 #include <mutex>
 #include <vector>
 
-#include "slam_core/io/frame_source.h"
+#include "slam_core/feature/frame.h"
 #include "slam_core/vo/local_mapper.h"
 #include "slam_core/vo/tracker.h"
 

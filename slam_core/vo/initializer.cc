@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
+#include "slam_core/map_ops/map_bundle_adjustment.h"
 #include "slam_core/solvers/two_view_init.h"
-#include "slam_core/vo/map_bundle_adjustment.h"
 #include "slam_core/vo/vo_matching.h"
 
 namespace ccm {

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "slam_core/map_ops/keyframe_matching.h"
+#include "slam_core/map_ops/map_bundle_adjustment.h"
+#include "slam_core/map_ops/point_fusion.h"
 #include "slam_core/solvers/triangulation.h"
-#include "slam_core/vo/map_bundle_adjustment.h"
-#include "slam_core/vo/point_fusion.h"
 #include "slam_core/vo/server_data_integrator.h"
 #include "slam_core/vo/vo_matching.h"
 

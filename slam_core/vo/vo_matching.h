@@ -31,16 +31,4 @@ std::vector<int> MatchForInitialization(const VoFrame& ref, const VoFrame& cur, 
 std::vector<std::pair<int, std::shared_ptr<MapPoint>>> MatchFrameToPoints(
     const VoFrame& frame, const std::vector<std::shared_ptr<MapPoint>>& points);
 
-/// Triangulation: keypoint pairs (i in kf1, j in kf2) without map points that satisfy the
-/// epipolar constraint of cam2_from_cam1.
-std::vector<std::pair<int, int>> MatchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2,
-                                                       const SE3& cam2_from_cam1);
-
-/// Fusion: projects `points` into keyframe `kf` (whose keypoints `grid` indexes) and returns
-/// (point, keypoint index) pairs within radius_px * level scale that match in appearance
-/// (whether or not the keypoint already has a point).
-std::vector<std::pair<std::shared_ptr<MapPoint>, int>> MatchPointsIntoKeyframe(
-    const KeyFrame& kf, const KeypointGrid& grid, const std::vector<std::shared_ptr<MapPoint>>& points,
-    double radius_px);
-
 }  // namespace ccm

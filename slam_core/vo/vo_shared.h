@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "slam_core/map/map.h"
+#include "slam_core/map_ops/change_log.h"
 #include "slam_core/vo/relocalization_index.h"
 #include "slam_core/vo/vo_options.h"
 
@@ -25,44 +26,6 @@ class AtomicIdGenerator {
  private:
   const AgentId agent_;
   std::atomic<uint64_t> next_;
-};
-
-/// Keyframes and points created or changed since the comm module last asked.
-class ChangeLog {
- public:
-  void Touch(KeyframeId kf) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    keyframes_.insert(kf);
-  }
-  void Touch(MapPointId mp) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    map_points_.insert(mp);
-  }
-  void Take(std::set<KeyframeId>* kfs, std::set<MapPointId>* mps) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    kfs->swap(keyframes_);
-    mps->swap(map_points_);
-    keyframes_.clear();
-    map_points_.clear();
-  }
-  size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return keyframes_.size() + map_points_.size();
-  }
-  /// Without a consumer (no server, standalone runs) the log would grow with the flight:
-  /// objects that left the map will never be sent, so they are dropped.
-  void Prune(const Map& map) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (auto it = keyframes_.begin(); it != keyframes_.end();) it = map.keyframe(*it) ? std::next(it) : keyframes_.erase(it);
-    for (auto it = map_points_.begin(); it != map_points_.end();) {
-      it = map.map_point(*it) ? std::next(it) : map_points_.erase(it);
-    }
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::set<KeyframeId> keyframes_;
-  std::set<MapPointId> map_points_;
 };
 
 /// Keyframes of other agents the server sent last (its k most covisible with the agent's

@@ -71,7 +71,7 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
   }
   const auto truth = ccm::sim::OverlapTruth::Compute(*sim);
   ccm::ServerBackend backend(vocab, base.BackendOptions());
-  ccm::replay::ReplayResult result;
+  ccm::report::RunResult result;
   if (!play_dir.empty()) {
     // The agents' batches as recorded: only the server runs again (server-side tuning).
     const auto recording = ccm::replay::LoadRecording(RecordingPath(play_dir, seed), &error);

@@ -19,14 +19,14 @@ double Seconds(const sim::Simulation& sim, int64_t stamp_ns) {
   return static_cast<double>(stamp_ns - sim.scenario().start_stamp_ns) * 1e-9;
 }
 
-int AgentIndex(const replay::ReplayResult& r, AgentId id) {
+int AgentIndex(const report::RunResult& r, AgentId id) {
   for (size_t i = 0; i < r.agents.size(); ++i) {
     if (r.agents[i].id == id) return static_cast<int>(i);
   }
   return -1;
 }
 
-std::optional<int64_t> KeyframeStamp(const replay::ReplayResult& r, KeyframeId kf) {
+std::optional<int64_t> KeyframeStamp(const report::RunResult& r, KeyframeId kf) {
   const int a = AgentIndex(r, kf.agent());
   if (a < 0) return std::nullopt;
   for (const ServerKeyframePose& p : r.agents[a].server_keyframes) {
@@ -35,7 +35,7 @@ std::optional<int64_t> KeyframeStamp(const replay::ReplayResult& r, KeyframeId k
   return std::nullopt;
 }
 
-DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth, const replay::ReplayResult& r,
+DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth, const report::RunResult& r,
                      const ServerEvent& e) {
   DetectionCheck c;
   c.event = e;
@@ -63,7 +63,7 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
 }
 
 // RMSE over segments, each aligned on its own (a new segment starts a new VO frame).
-double SegmentedAte(const replay::ReplayAgentResult& a) {
+double SegmentedAte(const report::AgentRunResult& a) {
   double sum_sq = 0.0;
   size_t n = 0;
   for (const auto& [segment, t] : a.vo_segments) {
@@ -77,7 +77,7 @@ double SegmentedAte(const replay::ReplayAgentResult& a) {
   return n ? std::sqrt(sum_sq / static_cast<double>(n)) : -1.0;
 }
 
-MapScore ScoreMap(const MapSummary& m, const replay::ReplayResult& r, const std::vector<AgentScore>& agents) {
+MapScore ScoreMap(const MapSummary& m, const report::RunResult& r, const std::vector<AgentScore>& agents) {
   MapScore s;
   s.id = m.id;
   s.keyframes = m.keyframes + m.anchored;
@@ -110,11 +110,11 @@ MapScore ScoreMap(const MapSummary& m, const replay::ReplayResult& r, const std:
 
 }  // namespace
 
-SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const replay::ReplayResult& r) {
+SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const report::RunResult& r) {
   SceneScore s;
   // Agents' VO.
   for (size_t i = 0; i < r.agents.size(); ++i) {
-    const replay::ReplayAgentResult& a = r.agents[i];
+    const report::AgentRunResult& a = r.agents[i];
     AgentScore as;
     as.name = a.name;
     as.path_m = truth.agents()[i].path_m;

@@ -64,6 +64,6 @@ struct SceneScore {
   double worst_scale_spread = 0.0;
 };
 
-SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const replay::ReplayResult& result);
+SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const report::RunResult& result);
 
 }  // namespace ccm::bench

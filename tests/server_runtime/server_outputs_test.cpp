@@ -38,7 +38,7 @@ TEST(ServerOutputs, EveryMapIsWrittenNotOnlyTheLargest) {
     // The first 4 s of each flight at 10 Hz: both agents initialize and send keyframes.
     in.push_back({sim->agent_name(a), static_cast<AgentId>(a + 1), std::make_unique<sim::SimFrameSource>(sim, a, 0, 2, 40)});
   }
-  const replay::ReplayResult r = replay::RunReplay(std::move(in), o, &backend);
+  const report::RunResult r = replay::RunReplay(std::move(in), o, &backend);
   ASSERT_EQ(r.error, "");
   const std::vector<MapSummary> maps = backend.Maps();
   ASSERT_EQ(maps.size(), 2u) << "two rooms, no place recognition: two maps";

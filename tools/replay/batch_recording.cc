@@ -146,8 +146,8 @@ KfRec ToRec(const KeyframeData& k, uint32_t camera) {
 
 }  // namespace
 
-void RecordAgents(const ReplayResult& result, Recording* recording) {
-  for (const ReplayAgentResult& a : result.agents) {
+void RecordAgents(const RunResult& result, Recording* recording) {
+  for (const AgentRunResult& a : result.agents) {
     recording->agents.push_back({a.name, a.id, a.frames, a.frames_tracked, a.keyframes_created, a.segments,
                                  a.relocalizations, a.ground_truth, a.vo_keyframes, a.vo_segments});
   }
@@ -303,9 +303,9 @@ std::optional<Recording> LoadRecording(const std::string& path, std::string* err
   return rec;
 }
 
-ReplayResult PlayRecording(const Recording& rec, ServerBackend* backend, const PlayOptions& o) {
+RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const PlayOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  ReplayResult result;
+  RunResult result;
   const size_t last = std::min(o.last, rec.batches.size());
   {
     std::unique_ptr<server::BackendRunner> runner;
@@ -329,7 +329,7 @@ ReplayResult PlayRecording(const Recording& rec, ServerBackend* backend, const P
     }
   }
   for (const RecordedAgent& a : rec.agents) {
-    ReplayAgentResult r;
+    AgentRunResult r;
     r.name = a.name;
     r.id = a.id;
     r.frames = a.frames;

@@ -33,7 +33,7 @@ struct Recording {
 };
 
 /// The agents' part of a replay result (call after RunReplay filled `batches`).
-void RecordAgents(const ReplayResult& result, Recording* recording);
+void RecordAgents(const RunResult& result, Recording* recording);
 
 bool SaveRecording(const Recording& recording, const std::string& path, std::string* error);
 std::optional<Recording> LoadRecording(const std::string& path, std::string* error);
@@ -50,9 +50,9 @@ struct PlayOptions {
   bool final_global_ba = true;
 };
 
-/// Feeds the recorded batches into `backend` and returns a ReplayResult (agents' ground truth
+/// Feeds the recorded batches into `backend` and returns a RunResult (agents' ground truth
 /// and VO trajectories from the recording, server trajectories from the back-end), so
-/// EvaluateReplay scores it like a live replay.
-ReplayResult PlayRecording(const Recording& recording, ServerBackend* backend, const PlayOptions& options);
+/// EvaluateRun scores it like a live replay.
+RunResult PlayRecording(const Recording& recording, ServerBackend* backend, const PlayOptions& options);
 
 }  // namespace ccm::replay

@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "agent_runtime/agent_config.h"
-#include "runtime_common/install_paths.h"
+#include "slam_core/common/install_paths.h"
 #include "server_runtime/map_view_server.h"
 #include "slam_core/io/dataset.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
@@ -23,7 +23,7 @@
 #include "tests/sim/simulation.h"
 #include "tools/replay/batch_recording.h"
 #include "tools/replay/dataset_spec.h"
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
 #ifndef CCM_DEFAULT_VOCABULARY
 #define CCM_DEFAULT_VOCABULARY ""
@@ -133,7 +133,7 @@ bool OpenInputs(const Args& a, std::vector<ccm::replay::ReplayAgentInput>* input
   return !inputs->empty();
 }
 
-void PrintSummary(const ccm::replay::ReplayResult& r, const ccm::replay::ReplayEvaluation& ev) {
+void PrintSummary(const ccm::report::RunResult& r, const ccm::report::RunEvaluation& ev) {
   std::printf("\n%-12s %7s %8s %6s %10s %10s %12s %12s\n", "agent", "frames", "tracked", "segs", "KFs VO",
               "KFs map", "ATE VO [m]", "ATE map [m]");
   for (size_t i = 0; i < r.agents.size(); ++i) {
@@ -290,9 +290,9 @@ int main(int argc, char** argv) {
                  p.frames_total, p.maps.size(), kfs, p.fusions, p.loops);
   });
   if (!result.error.empty()) return Fail(result.error, 1);
-  const auto evaluation = ccm::replay::EvaluateReplay(result);
+  const auto evaluation = ccm::report::EvaluateRun(result);
   PrintSummary(result, evaluation);
-  if (!ccm::replay::WriteReplayOutputs(a.out, result, evaluation, *backend, &error)) return Fail(error, 1);
+  if (!ccm::report::WriteRunOutputs(a.out, result, evaluation, *backend, &error)) return Fail(error, 1);
   if (!a.save_map.empty() && !backend->Save(a.save_map, &error)) return Fail(error, 1);
   if (!a.record.empty()) {
     ccm::replay::RecordAgents(result, &recording);

@@ -119,9 +119,9 @@ class Session {
     runner.Stop();
   }
 
-  void Collect(ReplayResult* r) {
+  void Collect(RunResult* r) {
     for (auto& a : agents_) {
-      ReplayAgentResult ar;
+      AgentRunResult ar;
       ar.name = a->input.name;
       ar.id = a->input.id;
       ar.frames = a->frames;
@@ -248,9 +248,9 @@ std::string ReplayOptions::Validate() const {
   return "";
 }
 
-ReplayResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& options, ServerBackend* backend,
+RunResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& options, ServerBackend* backend,
                        const ProgressFn& progress) {
-  ReplayResult result;
+  RunResult result;
   const auto t0 = Clock::now();
   if (const std::string e = options.Validate(); !e.empty()) {
     result.error = e;

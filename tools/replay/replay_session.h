@@ -19,8 +19,12 @@
 #include "slam_core/map/near_duplicate.h"
 #include "slam_core/server/server_backend.h"
 #include "slam_core/vo/vo_options.h"
+#include "server_runtime/run_report.h"
 
 namespace ccm::replay {
+
+using report::AgentRunResult;
+using report::RunResult;
 
 struct ReplayAgentInput {
   std::string name;
@@ -66,34 +70,11 @@ struct ReplayProgress {
   int64_t fusions = 0, loops = 0;
 };
 
-struct ReplayAgentResult {
-  std::string name;
-  AgentId id = 0;
-  int64_t frames = 0, frames_tracked = 0;
-  int64_t keyframes_created = 0;
-  int segments = 0;
-  int64_t relocalizations = 0;        ///< lost, then tracking again in the same segment
-  Trajectory ground_truth;            ///< per frame, where the source has it
-  Trajectory vo_keyframes;            ///< the agent's own keyframe trajectory (its VO frame)
-  std::map<MapId, Trajectory> vo_segments;  ///< the same keyframes by VO segment (each its own frame)
-  std::vector<ServerKeyframePose> server_keyframes;  ///< as registered on the server
-  std::vector<double> tracking_ms;
-};
-
-struct ReplayResult {
-  std::vector<ReplayAgentResult> agents;
-  std::vector<ServerEvent> events;
-  std::vector<MapSummary> maps;
-  BackendStats stats;
-  double wall_s = 0.0;
-  std::string error;  ///< non-empty if the run could not start or a source failed
-};
-
 using ProgressFn = std::function<void(const ReplayProgress&)>;
 
 /// Runs every agent to the end of its input. `backend` is the caller's (so it can be saved,
 /// inspected or preloaded from a saved map); it must be empty or loaded, and not running.
-ReplayResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& options, ServerBackend* backend,
+RunResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& options, ServerBackend* backend,
                        const ProgressFn& progress = {});
 
 }  // namespace ccm::replay

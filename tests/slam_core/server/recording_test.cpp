@@ -7,7 +7,7 @@
 
 #include "tests/slam_core/server/server_test_util.h"
 #include "tools/replay/batch_recording.h"
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
 namespace ccm {
 namespace {
@@ -24,30 +24,30 @@ const replay::Recording& Hall3Recording() {
   return rec;
 }
 
-replay::ReplayEvaluation Play(const ServerOptions& o, const replay::PlayOptions& p, replay::ReplayResult* out = nullptr,
+report::RunEvaluation Play(const ServerOptions& o, const replay::PlayOptions& p, report::RunResult* out = nullptr,
                               std::unique_ptr<ServerBackend>* keep = nullptr) {
   ServerOptions options = o;
   if (!p.threaded) options.optimization.global_ba_threads = 1;  // deterministic, comparable runs
   auto backend = std::make_unique<ServerBackend>(SimVocabulary(), options);
-  const replay::ReplayResult r = replay::PlayRecording(Hall3Recording(), backend.get(), p);
+  const report::RunResult r = replay::PlayRecording(Hall3Recording(), backend.get(), p);
   if (out) *out = r;
   if (keep) *keep = std::move(backend);
-  return replay::EvaluateReplay(r);
+  return report::EvaluateRun(r);
 }
 
-int64_t Registered(const replay::ReplayResult& r) {
+int64_t Registered(const report::RunResult& r) {
   int64_t n = 0;
   for (const auto& [a, c] : r.stats.agents) n += c.keyframes_registered;
   return n;
 }
 
-int64_t Skipped(const replay::ReplayResult& r) {
+int64_t Skipped(const report::RunResult& r) {
   int64_t n = 0;
   for (const auto& [a, c] : r.stats.agents) n += c.keyframes_duplicate;
   return n;
 }
 
-double LastBaSeconds(const replay::ReplayResult& r) {
+double LastBaSeconds(const report::RunResult& r) {
   return r.stats.global_ba_seconds.empty() ? 0.0 : r.stats.global_ba_seconds.back().second;
 }
 
@@ -62,7 +62,7 @@ TEST(ServerRecording, KeyframeThinningKeepsAccuracy) {
   all.mapping.duplicate_distance_ratio = 0.0;
   ServerOptions theta_only;
   theta_only.mapping.duplicate_distance_ratio = 0.0;
-  replay::ReplayResult r_all, r_theta, r_default;
+  report::RunResult r_all, r_theta, r_default;
   const auto ev_all = Play(all, {}, &r_all);
   const auto ev_theta = Play(theta_only, {}, &r_theta);
   const auto ev_default = Play(ServerOptions{}, {}, &r_default);
@@ -109,8 +109,8 @@ TEST(ServerRecording, SavedHalfWayTheReloadedStackFusesAndClosesLoopsOn) {
   ASSERT_NE(loaded, nullptr) << error;
   replay::PlayOptions p2;
   p2.first = half;
-  const replay::ReplayResult r = replay::PlayRecording(rec, loaded.get(), p2);
-  const auto ev = replay::EvaluateReplay(r);
+  const report::RunResult r = replay::PlayRecording(rec, loaded.get(), p2);
+  const auto ev = report::EvaluateRun(r);
   std::printf("  before save: %zu maps, %lld fusions, %lld loops; after reload: +%lld fusions, +%lld loops, ATE %.4f m\n",
               first->Maps().size(), static_cast<long long>(before.fusions), static_cast<long long>(before.loops),
               static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops), ev.collaborative_ate_m.rmse);
@@ -130,7 +130,7 @@ TEST(ServerRecording, ParallelHandlersBuildTheSameQualityMap) {
   // it. All at once, 2 of 8 runs found only one of the two fusions since half of the
   // keyframes arrive as anchors (fewer place-recognition queries in the overlap race).
   p.threaded_window = 12;
-  replay::ReplayResult r;
+  report::RunResult r;
   const auto ev = Play(ServerOptions{}, p, &r);
   std::printf("  threaded: maps %zu, fusions %lld, loops %lld, ATE %.4f m (%.4f%%), global BA aborted %lld\n", ev.maps,
               static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops), ev.collaborative_ate_m.rmse,

@@ -10,7 +10,7 @@
 #include "slam_core/eval/metrics.h"
 #include "tests/slam_core/server/server_test_util.h"
 #include "tools/replay/batch_recording.h"
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
 namespace ccm {
 namespace {
@@ -31,7 +31,7 @@ std::vector<ReplayAgentInput> SimAgents(const std::shared_ptr<const sim::Simulat
   return in;
 }
 
-void PrintScores(const replay::ReplayResult& r, const replay::ReplayEvaluation& ev) {
+void PrintScores(const report::RunResult& r, const report::RunEvaluation& ev) {
   for (const auto& s : ev.agents) {
     std::printf("  %s: path %.1f m, standalone ATE %.4f m, collaborative ATE %.4f m, %zu keyframes in the map\n",
                 s.name.c_str(), s.path_m, s.standalone_ate_m.rmse, s.collaborative_ate_m.rmse, s.server_keyframes);
@@ -53,9 +53,9 @@ TEST(ServerScenario, Hall3ThreeAgentsFuseCloseLoopsAndBeatStandalone) {
   replay::Recording recording;
   o.on_batch = [&](const AgentBatch& b) { recording.batches.push_back(b); };
   ServerBackend backend(SimVocabulary(), o.BackendOptions());
-  const replay::ReplayResult r = replay::RunReplay(SimAgents(sim), o, &backend);
+  const report::RunResult r = replay::RunReplay(SimAgents(sim), o, &backend);
   ASSERT_EQ(r.error, "");
-  const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
+  const report::RunEvaluation ev = report::EvaluateRun(r);
   PrintScores(r, ev);
   replay::RecordAgents(r, &recording);
   std::string error;
@@ -83,9 +83,9 @@ TEST(ServerScenario, RepeatedReplayClosesNoAliasedLoop) {
   replay::ReplayOptions o;
   o.map_sharing = false;
   ServerBackend backend(SimVocabulary(), o.BackendOptions());
-  const replay::ReplayResult r = replay::RunReplay(SimAgents(sim), o, &backend);
+  const report::RunResult r = replay::RunReplay(SimAgents(sim), o, &backend);
   ASSERT_EQ(r.error, "");
-  const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
+  const report::RunEvaluation ev = report::EvaluateRun(r);
   PrintScores(r, ev);
   std::printf("  %lld verified loops rejected as implausible corrections\n",
               static_cast<long long>(r.stats.place.implausible_loops));
@@ -102,7 +102,7 @@ TEST(ServerScenario, Disjoint2NeverFuses) {
   replay::ReplayOptions o;
   ServerBackend backend(SimVocabulary(), o.BackendOptions());
   // The first 35 s of both flights at 10 Hz.
-  const replay::ReplayResult r = replay::RunReplay(SimAgents(sim, 350, 2), o, &backend);
+  const report::RunResult r = replay::RunReplay(SimAgents(sim, 350, 2), o, &backend);
   ASSERT_EQ(r.error, "");
   std::printf("  disjoint2: maps %zu, fusions %lld, loops %lld, place candidates verified %lld\n", r.maps.size(),
               static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops),
@@ -246,13 +246,13 @@ TEST(ServerScenario, SegmentAfterTrackingLossEndsInTheFusedMap) {
                                                                 150, 45)});
   replay::ReplayOptions o;
   ServerBackend backend(SimVocabulary(), o.BackendOptions());
-  const replay::ReplayResult r = replay::RunReplay(std::move(in), o, &backend);
+  const report::RunResult r = replay::RunReplay(std::move(in), o, &backend);
   ASSERT_EQ(r.error, "");
   ASSERT_EQ(r.agents[0].segments, 2) << "the blackout must open a second VO segment";
   const auto handlers = backend.stack().HandlersOfAgent(1);
   ASSERT_EQ(handlers.size(), 2u) << "one handler per segment";
   EXPECT_EQ(handlers[0].map, handlers[1].map) << "both segments end in one map";
-  const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
+  const report::RunEvaluation ev = report::EvaluateRun(r);
   PrintScores(r, ev);
   EXPECT_EQ(ev.maps, 1u);
   EXPECT_EQ(ev.agents[0].server_keyframes, backend.AgentTrajectory(1).size()) << "every keyframe is in the final map";

@@ -1,20 +1,45 @@
-// Scores and writes what a replay (or a live server, server_runtime/server_outputs.h)
-// produced, for EVERY map that remains, so an agent that never fused is not invisible:
-// per map, each agent's keyframes, the joint ATE of all its keyframes under one Sim(3)
+// What a run of agents and the server back-end produced (a ccm_replay run, or a live server
+// stopping: server_outputs.h), scored and written for EVERY map
+// that remains, so an agent that never fused is not invisible: per map, each agent's keyframes, the joint ATE of all its keyframes under one Sim(3)
 // alignment (CCM-SLAM's measure) and how well the agents' parts agree in scale; for the
 // largest map also the historic per-agent numbers; each agent's standalone VO ATE. Outputs:
 // keyframe trajectories per map and agent (TUM), summary.json, PLY per map, one PNG top view
 // with a panel per map.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
 #include "slam_core/eval/metrics.h"
 #include "slam_core/geometry/sim3.h"
-#include "tools/replay/replay_session.h"
+#include "slam_core/io/trajectory.h"
+#include "slam_core/server/server_backend.h"
 
-namespace ccm::replay {
+namespace ccm::report {
+
+struct AgentRunResult {
+  std::string name;
+  AgentId id = 0;
+  int64_t frames = 0, frames_tracked = 0;
+  int64_t keyframes_created = 0;
+  int segments = 0;
+  int64_t relocalizations = 0;        ///< lost, then tracking again in the same segment
+  Trajectory ground_truth;            ///< per frame, where the source has it
+  Trajectory vo_keyframes;            ///< the agent's own keyframe trajectory (its VO frame)
+  std::map<MapId, Trajectory> vo_segments;  ///< the same keyframes by VO segment (each its own frame)
+  std::vector<ServerKeyframePose> server_keyframes;  ///< as registered on the server
+  std::vector<double> tracking_ms;
+};
+
+struct RunResult {
+  std::vector<AgentRunResult> agents;
+  std::vector<ServerEvent> events;
+  std::vector<MapSummary> maps;
+  BackendStats stats;
+  double wall_s = 0.0;
+  std::string error;  ///< non-empty if the run could not start or a source failed
+};
 
 struct AgentScore {
   std::string name;
@@ -52,7 +77,7 @@ struct MapScore {
   std::string note;                 ///< why it was not scored
 };
 
-struct ReplayEvaluation {
+struct RunEvaluation {
   bool has_ground_truth = false;
   MapId final_map;                  ///< the largest map (all agents' when everything fused)
   size_t maps = 0;
@@ -66,17 +91,17 @@ struct ReplayEvaluation {
   std::string note;                 ///< why something could not be scored
 };
 
-ReplayEvaluation EvaluateReplay(const ReplayResult& result);
+RunEvaluation EvaluateRun(const RunResult& result);
 
 /// Output file names: the keyframes of `agent` in map `map` ("map<k>_<agent>_keyframes.tum"),
 /// and a map's PLY ("map.ply" for the largest map, "map<k>.ply" for the others).
 std::string MapTrajectoryFile(MapId map, const std::string& agent);
-std::string MapPlyFile(const ReplayEvaluation& evaluation, MapId map);
+std::string MapPlyFile(const RunEvaluation& evaluation, MapId map);
 
 /// Writes into `dir`: map<k>_<agent>_keyframes.tum for every map and agent in it,
 /// <agent>_keyframes.tum (largest map, as before maps were listed), <agent>_ground_truth.tum,
 /// summary.json (every map), map.ply / map<k>.ply, map_top.png (a panel per map).
-bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, const ReplayEvaluation& evaluation,
+bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunEvaluation& evaluation,
                         const ServerBackend& backend, std::string* error);
 
-}  // namespace ccm::replay
+}  // namespace ccm::report

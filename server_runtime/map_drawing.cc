@@ -1,4 +1,4 @@
-#include "tools/replay/map_drawing.h"
+#include "server_runtime/map_drawing.h"
 
 #include <cmath>
 #include <cstdint>
@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace ccm::replay {
+namespace ccm::report {
 namespace {
 
 const cv::Scalar kAgentColours[] = {{40, 40, 220}, {40, 170, 40}, {220, 110, 30}, {180, 40, 180},
@@ -57,7 +57,7 @@ Projection FitProjection(const std::vector<SE3>& cameras, const std::vector<Eige
   return pr;
 }
 
-std::string AgentName(const ReplayResult& result, AgentId id) {
+std::string AgentName(const RunResult& result, AgentId id) {
   for (const auto& a : result.agents) {
     if (a.id == id) return a.name;
   }
@@ -75,7 +75,7 @@ void Text(cv::Mat* img, const std::string& s, cv::Point at, const cv::Scalar& co
 }
 
 // One map's panel: points, each agent's keyframe path (ground truth light, where scored).
-cv::Mat DrawPanel(const MapScore& ms, const ReplayResult& result, const ServerBackend& backend, bool largest,
+cv::Mat DrawPanel(const MapScore& ms, const RunResult& result, const ServerBackend& backend, bool largest,
                   int size_px) {
   const Sim3 to_view = ms.scored ? ms.gt_from_map : Sim3();
   std::vector<std::vector<Eigen::Vector3d>> trajs, gts;
@@ -83,7 +83,7 @@ cv::Mat DrawPanel(const MapScore& ms, const ReplayResult& result, const ServerBa
   for (const AgentInMap& part : ms.agents) {
     std::vector<Eigen::Vector3d> t, g;
     int64_t first_ns = INT64_MAX, last_ns = INT64_MIN;
-    for (const ReplayAgentResult& a : result.agents) {
+    for (const AgentRunResult& a : result.agents) {
       if (a.id != part.id) continue;
       for (const auto& k : a.server_keyframes) {
         if (k.map != ms.summary.id) continue;
@@ -189,7 +189,7 @@ bool WriteMapPly(const std::string& path, const ServerBackend& backend, MapId ma
   return true;
 }
 
-bool WriteMapTopView(const std::string& path, const ReplayResult& result, const ReplayEvaluation& ev,
+bool WriteMapTopView(const std::string& path, const RunResult& result, const RunEvaluation& ev,
                      const ServerBackend& backend, std::string* error, int panel_px) {
   const int n = static_cast<int>(ev.map_scores.size());
   if (panel_px <= 0) panel_px = n <= 1 ? 1200 : 800;
@@ -210,4 +210,4 @@ bool WriteMapTopView(const std::string& path, const ReplayResult& result, const 
   return true;
 }
 
-}  // namespace ccm::replay
+}  // namespace ccm::report

@@ -1,6 +1,6 @@
-#include "slam_core/vo/point_fusion.h"
+#include "slam_core/map_ops/point_fusion.h"
 
-#include "slam_core/vo/vo_matching.h"
+#include "slam_core/map_ops/keyframe_matching.h"
 
 namespace ccm {
 

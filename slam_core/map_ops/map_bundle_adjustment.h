@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "slam_core/map/map.h"
+#include "slam_core/map_ops/change_log.h"
 #include "slam_core/optimization/bundle_adjustment.h"
-#include "slam_core/vo/vo_shared.h"
 
 namespace ccm {
 

@@ -1,10 +1,10 @@
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
 #include <algorithm>
 
 #include "slam_core/eval/evaluator.h"
 
-namespace ccm::replay {
+namespace ccm::report {
 namespace {
 
 std::vector<SE3> Poses(const Trajectory& t) {
@@ -30,11 +30,11 @@ double PathBetween(const Trajectory& gt, int64_t from_ns, int64_t to_ns) {
   return PathLengthM(poses);
 }
 
-MapScore ScoreMap(const ReplayResult& result, const MapSummary& summary) {
+MapScore ScoreMap(const RunResult& result, const MapSummary& summary) {
   MapScore ms;
   ms.summary = summary;
   std::vector<AgentInput> joint;
-  for (const ReplayAgentResult& a : result.agents) {
+  for (const AgentRunResult& a : result.agents) {
     const Trajectory t = InMap(a.server_keyframes, summary.id);
     if (t.empty() && !summary.agents.count(a.id)) continue;
     AgentInMap part;
@@ -78,12 +78,12 @@ std::string MapTrajectoryFile(MapId map, const std::string& agent) {
   return "map" + std::to_string(map.counter()) + "_" + agent + "_keyframes.tum";
 }
 
-std::string MapPlyFile(const ReplayEvaluation& ev, MapId map) {
+std::string MapPlyFile(const RunEvaluation& ev, MapId map) {
   return map == ev.final_map ? std::string("map.ply") : "map" + std::to_string(map.counter()) + ".ply";
 }
 
-ReplayEvaluation EvaluateReplay(const ReplayResult& result) {
-  ReplayEvaluation ev;
+RunEvaluation EvaluateRun(const RunResult& result) {
+  RunEvaluation ev;
   ev.maps = result.maps.size();
   std::vector<MapSummary> maps = result.maps;
   // Largest first; on a tie the map listed first stays first (the final map before maps
@@ -95,7 +95,7 @@ ReplayEvaluation EvaluateReplay(const ReplayResult& result) {
   if (!maps.empty()) ev.final_map = maps.front().id;
   double standalone_sum = 0.0;
   int standalone_n = 0;
-  for (const ReplayAgentResult& a : result.agents) {
+  for (const AgentRunResult& a : result.agents) {
     AgentScore s;
     s.name = a.name;
     s.id = a.id;
@@ -135,4 +135,4 @@ ReplayEvaluation EvaluateReplay(const ReplayResult& result) {
   return ev;
 }
 
-}  // namespace ccm::replay
+}  // namespace ccm::report

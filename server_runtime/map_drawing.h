@@ -8,13 +8,13 @@
 
 #include <string>
 
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
-namespace ccm::replay {
+namespace ccm::report {
 
 bool WriteMapPly(const std::string& path, const ServerBackend& backend, MapId map, std::string* error);
 /// `panel_px`: side of each panel; 0: 1200 for one map, 800 for several.
-bool WriteMapTopView(const std::string& path, const ReplayResult& result, const ReplayEvaluation& evaluation,
+bool WriteMapTopView(const std::string& path, const RunResult& result, const RunEvaluation& evaluation,
                      const ServerBackend& backend, std::string* error, int panel_px = 0);
 
-}  // namespace ccm::replay
+}  // namespace ccm::report

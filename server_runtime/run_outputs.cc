@@ -1,14 +1,14 @@
-// WriteReplayOutputs (replay_report.h): the files a replay or a stopped server leaves.
+// WriteRunOutputs (run_report.h): the files a replay or a stopped server leaves.
 #include <filesystem>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
 
 #include "slam_core/io/trajectory_io.h"
-#include "tools/replay/map_drawing.h"
-#include "tools/replay/replay_report.h"
+#include "server_runtime/map_drawing.h"
+#include "server_runtime/run_report.h"
 
-namespace ccm::replay {
+namespace ccm::report {
 namespace {
 
 nlohmann::json StatsJson(const ErrorStats& s) {
@@ -23,8 +23,8 @@ Trajectory InMap(const std::vector<ServerKeyframePose>& kfs, MapId map) {
   return t;
 }
 
-const ReplayAgentResult* FindAgent(const ReplayResult& result, AgentId id) {
-  for (const ReplayAgentResult& a : result.agents) {
+const AgentRunResult* FindAgent(const RunResult& result, AgentId id) {
+  for (const AgentRunResult& a : result.agents) {
     if (a.id == id) return &a;
   }
   return nullptr;
@@ -40,7 +40,7 @@ bool WriteTum(const std::string& path, const Trajectory& t, std::string* error) 
 
 // Every map, largest first: sizes, its agents' parts with their trajectory files, and the
 // accuracy of the map on its own (null without ground truth).
-nlohmann::json MapsJson(const ReplayEvaluation& ev) {
+nlohmann::json MapsJson(const RunEvaluation& ev) {
   nlohmann::json maps = nlohmann::json::array();
   for (const MapScore& ms : ev.map_scores) {
     const MapSummary& m = ms.summary;
@@ -79,10 +79,10 @@ nlohmann::json MapsJson(const ReplayEvaluation& ev) {
   return maps;
 }
 
-nlohmann::json AgentsJson(const ReplayResult& result, const ReplayEvaluation& ev) {
+nlohmann::json AgentsJson(const RunResult& result, const RunEvaluation& ev) {
   nlohmann::json agents = nlohmann::json::array();
   for (size_t i = 0; i < result.agents.size(); ++i) {
-    const ReplayAgentResult& a = result.agents[i];
+    const AgentRunResult& a = result.agents[i];
     const AgentScore& sc = ev.agents[i];
     const auto counters = result.stats.agents.count(a.id) ? result.stats.agents.at(a.id) : AgentCounters{};
     agents.push_back({{"name", a.name},
@@ -123,7 +123,7 @@ nlohmann::json PlaceRecognitionJson(const PlaceMatcherStats& p) {
           {"fusion_verifications_stopped_at", stopped}};
 }
 
-nlohmann::json SummaryJson(const ReplayResult& result, const ReplayEvaluation& ev) {
+nlohmann::json SummaryJson(const RunResult& result, const RunEvaluation& ev) {
   nlohmann::json events = nlohmann::json::array();
   for (const ServerEvent& e : result.events) {
     events.push_back({{"kind", ServerEventKindName(e.kind)},
@@ -161,7 +161,7 @@ nlohmann::json SummaryJson(const ReplayResult& result, const ReplayEvaluation& e
 
 }  // namespace
 
-bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, const ReplayEvaluation& ev,
+bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunEvaluation& ev,
                         const ServerBackend& backend, std::string* error) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
@@ -169,7 +169,7 @@ bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, cons
     *error = "cannot create " + dir + ": " + ec.message();
     return false;
   }
-  for (const ReplayAgentResult& a : result.agents) {
+  for (const AgentRunResult& a : result.agents) {
     // The largest map under the agent's name alone: the files scripts read before every map
     // was written (empty when the agent is not in that map).
     if (!WriteTum(dir + "/" + a.name + "_keyframes.tum", InMap(a.server_keyframes, ev.final_map), error)) return false;
@@ -179,7 +179,7 @@ bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, cons
   }
   for (const MapScore& ms : ev.map_scores) {
     for (const AgentInMap& part : ms.agents) {
-      const ReplayAgentResult* a = FindAgent(result, part.id);
+      const AgentRunResult* a = FindAgent(result, part.id);
       if (!a || part.keyframes == 0) continue;
       const std::string path = dir + "/" + MapTrajectoryFile(ms.summary.id, a->name);
       if (!WriteTum(path, InMap(a->server_keyframes, ms.summary.id), error)) return false;
@@ -197,4 +197,4 @@ bool WriteReplayOutputs(const std::string& dir, const ReplayResult& result, cons
   return WriteMapTopView(dir + "/map_top.png", result, ev, backend, error);
 }
 
-}  // namespace ccm::replay
+}  // namespace ccm::report

@@ -1,4 +1,4 @@
-#include "slam_core/vo/map_bundle_adjustment.h"
+#include "slam_core/map_ops/map_bundle_adjustment.h"
 
 #include <algorithm>
 #include <unordered_map>

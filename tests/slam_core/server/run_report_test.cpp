@@ -1,4 +1,4 @@
-// ccm_replay's report on every map (tools/replay/replay_report.h), on a made-up result whose
+// ccm_replay's report on every map (server_runtime/run_report.h), on a made-up result whose
 // truth is known: agents A and B share map 1, A at scale 0.5 and B at 0.55 of the ground
 // truth (a fusion that got the scale 10 % wrong); agent C never fused and is alone in map 2.
 #include <gtest/gtest.h>
@@ -14,7 +14,7 @@
 
 #include "slam_core/io/trajectory_io.h"
 #include "tools/replay/dataset_spec.h"
-#include "tools/replay/replay_report.h"
+#include "server_runtime/run_report.h"
 
 namespace ccm {
 namespace {
@@ -23,9 +23,9 @@ const MapId kMap1 = MapId::Make(0, 1), kMap2 = MapId::Make(0, 2);
 
 // A curved flight of n poses (1 s apart) starting at x0, and its keyframes every 2nd frame
 // in `map` under map_from_gt.
-replay::ReplayAgentResult Agent(const std::string& name, AgentId id, double x0, int n, MapId map,
+report::AgentRunResult Agent(const std::string& name, AgentId id, double x0, int n, MapId map,
                                 const Sim3& map_from_gt) {
-  replay::ReplayAgentResult a;
+  report::AgentRunResult a;
   a.name = name;
   a.id = id;
   for (int i = 0; i < n; ++i) {
@@ -43,10 +43,10 @@ replay::ReplayAgentResult Agent(const std::string& name, AgentId id, double x0, 
   return a;
 }
 
-replay::ReplayResult MadeUpResult() {
+report::RunResult MadeUpResult() {
   const Sim3 to_map1(0.5, Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())), {1, 2, 3});
   const Sim3 b_to_map1(0.55, to_map1.rotation(), to_map1.translation());
-  replay::ReplayResult r;
+  report::RunResult r;
   r.agents.push_back(Agent("A", 1, 0.0, 30, kMap1, to_map1));
   r.agents.push_back(Agent("B", 2, 4.0, 30, kMap1, b_to_map1));
   r.agents.push_back(Agent("C", 3, 100.0, 20, kMap2, Sim3(2.0, Eigen::Quaterniond::Identity(), {0, 0, 0})));
@@ -57,11 +57,11 @@ replay::ReplayResult MadeUpResult() {
 }
 
 TEST(ReplayReport, ScoresEveryMapWithItsAgentsAndScales) {
-  const replay::ReplayEvaluation ev = replay::EvaluateReplay(MadeUpResult());
+  const report::RunEvaluation ev = report::EvaluateRun(MadeUpResult());
   ASSERT_EQ(ev.map_scores.size(), 2u);
   EXPECT_EQ(ev.final_map, kMap1);
-  const replay::MapScore& m1 = ev.map_scores[0];
-  const replay::MapScore& m2 = ev.map_scores[1];
+  const report::MapScore& m1 = ev.map_scores[0];
+  const report::MapScore& m2 = ev.map_scores[1];
   EXPECT_EQ(m1.summary.id, kMap1);
   ASSERT_EQ(m1.agents.size(), 2u);
   ASSERT_TRUE(m1.scored && m2.scored);
@@ -84,13 +84,13 @@ TEST(ReplayReport, ScoresEveryMapWithItsAgentsAndScales) {
 }
 
 TEST(ReplayReport, WritesEveryMapsTrajectoriesSummaryAndPanels) {
-  const replay::ReplayResult r = MadeUpResult();
-  const replay::ReplayEvaluation ev = replay::EvaluateReplay(r);
+  const report::RunResult r = MadeUpResult();
+  const report::RunEvaluation ev = report::EvaluateRun(r);
   ServerBackend backend(std::make_shared<Vocabulary>(), ServerOptions{});
   const std::string dir = (std::filesystem::temp_directory_path() / ("ccm_replay_report_" + std::to_string(::getpid()))).string();
   std::filesystem::remove_all(dir);
   std::string error;
-  ASSERT_TRUE(replay::WriteReplayOutputs(dir, r, ev, backend, &error)) << error;
+  ASSERT_TRUE(report::WriteRunOutputs(dir, r, ev, backend, &error)) << error;
   const auto count = [&](const std::string& file) {
     Trajectory t;
     EXPECT_TRUE(ReadTumTrajectory(dir + "/" + file, &t).ok()) << file;
