@@ -24,6 +24,7 @@
 
 #include "runtime_common/bounded_queue.h"
 #include "runtime_common/dds_session.h"
+#include "runtime_common/wakeup.h"
 
 namespace ccm::rt {
 
@@ -155,6 +156,9 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
   struct QueueOptions {
     std::size_t capacity = 256;
     OverflowPolicy policy = OverflowPolicy::kDropOldest;
+    /// Signalled after samples were queued (a consumer serving several readers waits on it);
+    /// must outlive the reader. Optional.
+    Wakeup* wakeup = nullptr;
   };
 
   /// `partition`: read only writers in this DDS partition (see DdsSession::subscriber).
@@ -218,6 +222,7 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
       if (!queue_.Push(std::move(r))) return;  // closed: shutting down
       counters_.queue_dropped += queue_.dropped() - dropped_before;
       r = Received();
+      if (wakeup_ != nullptr) wakeup_->Signal();
     }
   }
   void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
@@ -233,12 +238,14 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
       : session_(session),
         type_(new PubSubT()),
         counters_(session.Counters(topic, "in")),
-        queue_(queue_options.capacity, queue_options.policy) {}
+        queue_(queue_options.capacity, queue_options.policy),
+        wakeup_(queue_options.wakeup) {}
 
   DdsSession& session_;
   eprosima::fastdds::dds::TypeSupport type_;
   TopicCounters& counters_;
   BoundedQueue<Received> queue_;
+  Wakeup* const wakeup_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   MatchTracker match_;

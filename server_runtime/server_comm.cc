@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "runtime_common/topics.h"
 #include "runtime_common/wall_clock.h"
@@ -17,17 +18,9 @@ constexpr int kMaxKeyframesPerCycle = 64;
 constexpr int kMaxOtherPerCycle = 8192;
 constexpr int kMaxBatchesPerCycle = 16;
 
-constexpr std::chrono::milliseconds kMaxKeyframeHold(1500);
-constexpr std::chrono::seconds kSeenWindow(120);
-constexpr size_t kMaxEarlyUpdates = 65536;  // per agent and kind; beyond: the oldest go
-
-// A pose update that reached the server before (or while holding) its full keyframe.
-void ApplyPoseUpdate(const KeyframePoseUpdate& u, KeyframeData* kf) {
-  kf->predecessor = u.predecessor;
-  kf->pred_from_cam = u.pred_from_cam;
-  kf->parent = u.parent;
-  kf->parent_from_cam = u.parent_from_cam;
-}
+// Longest sleep of an idle comm thread: agents discovered without data get their writers,
+// and liveliness is checked, at least this often.
+constexpr std::chrono::milliseconds kMaxIdle(100);
 
 std::string VersionMismatch(const char* what, uint16_t version) {
   return std::string(what) + ": protocol version " + std::to_string(version) + ", expected " +
@@ -54,20 +47,20 @@ std::unique_ptr<ServerComm> ServerComm::Create(const ServerConfig& config, rt::S
   // New data: the listener waits only if the comm thread itself is stuck (it never waits on
   // SLAM work: Submit only queues), so nothing reliable is lost in the server process.
   c->keyframe_reader_ = TypedReader<msg::KeyframeFullPubSubType>::Create(
-      s, kTopicKeyframes, kProfileNewDataReader, {256, OverflowPolicy::kBlock}, error, kAllAgentsPartition);
+      s, kTopicKeyframes, kProfileNewDataReader, {256, OverflowPolicy::kBlock, &c->wakeup_}, error, kAllAgentsPartition);
   if (!c->keyframe_reader_) return nullptr;
   c->point_reader_ = TypedReader<msg::MapPointBatchPubSubType>::Create(
-      s, kTopicMapPoints, kProfileNewDataReader, {1024, OverflowPolicy::kBlock}, error, kAllAgentsPartition);
+      s, kTopicMapPoints, kProfileNewDataReader, {1024, OverflowPolicy::kBlock, &c->wakeup_}, error, kAllAgentsPartition);
   if (!c->point_reader_) return nullptr;
   // Updates are superseded by newer ones: drop the oldest when behind.
   c->kf_update_reader_ = TypedReader<msg::KeyframeUpdatePubSubType>::Create(
-      s, kTopicKeyframeUpdates, kProfileUpdateReader, {8192, OverflowPolicy::kDropOldest}, error, kAllAgentsPartition);
+      s, kTopicKeyframeUpdates, kProfileUpdateReader, {8192, OverflowPolicy::kDropOldest, &c->wakeup_}, error, kAllAgentsPartition);
   if (!c->kf_update_reader_) return nullptr;
   c->mp_update_reader_ = TypedReader<msg::MapPointUpdateBatchPubSubType>::Create(
-      s, kTopicMapPointUpdates, kProfileUpdateReader, {256, OverflowPolicy::kDropOldest}, error, kAllAgentsPartition);
+      s, kTopicMapPointUpdates, kProfileUpdateReader, {256, OverflowPolicy::kDropOldest, &c->wakeup_}, error, kAllAgentsPartition);
   if (!c->mp_update_reader_) return nullptr;
   c->status_reader_ = TypedReader<msg::AgentStatusPubSubType>::Create(
-      s, kTopicAgentStatus, kProfileStatusReader, {256, OverflowPolicy::kDropOldest}, error, kAllAgentsPartition);
+      s, kTopicAgentStatus, kProfileStatusReader, {256, OverflowPolicy::kDropOldest, &c->wakeup_}, error, kAllAgentsPartition);
   if (!c->status_reader_) return nullptr;
   return c;
 }
@@ -84,6 +77,7 @@ void ServerComm::Start() {
 
 void ServerComm::Stop() {
   if (!running_.exchange(false)) return;
+  wakeup_.Signal();
   thread_.join();
 }
 
@@ -101,9 +95,7 @@ void ServerComm::Run() {
     const bool got = Intake();
     PublishToAgents();
     CheckLiveliness();
-    // Idle: a short nap keeps the latency of a keyframe far below the agents' publish
-    // period at no measurable CPU cost (the queues have no combined wait).
-    if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (!got) wakeup_.WaitFor(NextWake() - Clock::now());
   }
   PublishToAgents();  // the last acks
 }
@@ -158,226 +150,158 @@ void ServerComm::Reject(AgentId agent, const std::string& reason) {
   if (auto it = stats_.agents.find(agent); it != stats_.agents.end()) ++it->second.rejected;
 }
 
-AgentBatch& ServerComm::BatchFor(std::map<BatchKey, AgentBatch>* batches, AgentId agent, MapId segment) {
-  AgentBatch& b = (*batches)[{agent, segment.packed()}];
-  b.agent = agent;
-  b.segment = segment;
-  return b;
+Clock::time_point ServerComm::NextWake() const {
+  Clock::time_point next = Clock::now() + kMaxIdle;
+  for (const auto& [agent, st] : states_) next = std::min(next, st.next_publish);
+  if (const auto held = reassembly_.NextDeadline()) next = std::min(next, *held);
+  return next;
+}
+
+template <typename Reader, typename Handler>
+bool ServerComm::Drain(Reader& reader, int max, const char* what, Handler&& handle) {
+  bool any = false;
+  for (int n = 0; n < max; ++n) {
+    auto received = reader.PopWithWriter(std::chrono::milliseconds(0));
+    if (!received) break;
+    any = true;
+    const AgentId agent = received->msg.agent_id();
+    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, what)) continue;
+    handle(agent, received->msg);
+  }
+  return any;
 }
 
 bool ServerComm::Intake() {
-  std::map<BatchKey, AgentBatch> batches;
-  std::string error;
-  bool got = false;
+  BatchSet batches;
   // Heartbeats first: they admit agents and carry the reference keyframe.
-  while (auto received = status_reader_->PopWithWriter(std::chrono::milliseconds(0))) {
-    got = true;
-    const msg::AgentStatus* st = &received->msg;
-    const AgentId agent = st->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "status")) continue;
-    if (st->protocol_version() != msg::kProtocolVersion) {
-      Reject(agent, VersionMismatch("status", st->protocol_version()));
-      continue;
-    }
-    const KeyframeId ref(st->ref_kf_id());
-    const MapId segment(st->map_segment_id());
-    if ((ref.valid() && ref.agent() != agent) || (segment.valid() && segment.agent() != agent)) {
-      Reject(agent, "status: reference keyframe or segment of another agent");
-      continue;
-    }
-    if (!Admit(agent, "status")) continue;
-    std::lock_guard<std::mutex> lock(mutex_);
-    AgentLink& link = stats_.agents[agent];
-    ++link.status_msgs;
-    if (ref.valid()) link.reference_kf = ref;
-    if (segment.valid()) {
-      link.segment = segment;
-      link.segments.insert(segment);
-    }
-    link.kfs_created = st->kfs_created();
-    link.kfs_sent = st->kfs_sent();
-    link.kfs_acked = st->kfs_acked();
-    link.kfs_resent = st->kfs_resent();
-    link.kfs_lost = st->kfs_lost();
-    link.tracking_state = st->tracking_state();
-  }
-  bool data = false;
-  for (int n = 0; n < kMaxKeyframesPerCycle; ++n) {
-    auto received = keyframe_reader_->PopWithWriter(std::chrono::milliseconds(0));
-    if (!received) break;
-    data = true;
-    auto* m = &received->msg;
-    const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe") ||
-        !Admit(agent, "keyframe")) {
-      continue;
-    }
-    KeyframeId ref;
-    auto d = conv::FromMsg(*m, &cameras_, &error, &ref);
-    if (!d) {
-      Reject(agent, error);
-      continue;
-    }
-    seen_keyframes_[agent].Note(d->id.packed(), Clock::now());
-    auto& early = early_[agent].keyframes;
-    if (auto it = early.find(d->id.packed()); it != early.end()) {
-      ApplyPoseUpdate(it->second, &*d);
-      early.erase(it);
-    }
-    const MapId segment = d->segment;
-    held_[agent].push_back({std::move(*d), ref, Clock::now()});
-    std::lock_guard<std::mutex> lock(mutex_);
-    AgentLink& link = stats_.agents[agent];
-    ++link.keyframes;
-    link.segments.insert(segment);
-  }
-  for (int n = 0; n < kMaxBatchesPerCycle; ++n) {
-    auto received = point_reader_->PopWithWriter(std::chrono::milliseconds(0));
-    if (!received) break;
-    data = true;
-    auto* m = &received->msg;
-    const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map points") ||
-        !Admit(agent, "map points")) {
-      continue;
-    }
-    if (m->protocol_version() != msg::kProtocolVersion) {
-      Reject(agent, VersionMismatch("map point batch", m->protocol_version()));
-      continue;
-    }
-    int64_t accepted = 0;
-    for (const msg::MapPointFull& p : m->points()) {
-      auto d = p.agent_id() == agent ? conv::FromMsg(p, &error) : std::nullopt;
-      if (!d) {
-        Reject(agent, p.agent_id() == agent ? error : "map point: agent id differs from its batch's");
-        continue;
-      }
-      seen_points_[agent].Note(d->id.packed(), Clock::now());
-      auto& early = early_[agent].points;
-      if (auto it = early.find(d->id.packed()); it != early.end()) {
-        d->reference_kf = it->second.reference_kf;
-        d->position_ref = it->second.position_ref;
-        early.erase(it);
-      }
-      BatchFor(&batches, agent, d->segment).map_points.push_back(std::move(*d));
-      ++accepted;
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    stats_.agents[agent].map_points += accepted;
-  }
-  for (int n = 0; n < kMaxOtherPerCycle; ++n) {
-    auto received = kf_update_reader_->PopWithWriter(std::chrono::milliseconds(0));
-    if (!received) break;
-    data = true;
-    auto* m = &received->msg;
-    const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "keyframe update") ||
-        !Admit(agent, "keyframe update")) {
-      continue;
-    }
-    auto d = conv::FromMsg(*m, &error);
-    if (!d) {
-      Reject(agent, error);
-      continue;
-    }
-    if (!seen_keyframes_[agent].Seen(d->id.packed(), d->id.counter())) {
-      auto& early = early_[agent].keyframes;
-      if (early.size() >= kMaxEarlyUpdates) early.clear();  // a flood of unknown ids: not worth keeping
-      early[d->id.packed()] = *d;
-      continue;
-    }
-    if (ApplyToHeld(agent, *d)) continue;
-    BatchFor(&batches, agent, d->segment).keyframe_updates.push_back(*d);
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++stats_.agents[agent].keyframe_updates;
-  }
-  for (int n = 0; n < kMaxBatchesPerCycle; ++n) {
-    auto received = mp_update_reader_->PopWithWriter(std::chrono::milliseconds(0));
-    if (!received) break;
-    data = true;
-    auto* m = &received->msg;
-    const AgentId agent = m->agent_id();
-    if (!ValidAgentId(agent) || !FromItsPartition(received->writer, agent, "map point updates") ||
-        !Admit(agent, "map point updates")) {
-      continue;
-    }
-    if (m->protocol_version() != msg::kProtocolVersion) {
-      Reject(agent, VersionMismatch("map point update batch", m->protocol_version()));
-      continue;
-    }
-    int64_t accepted = 0;
-    for (const msg::MapPointUpdate& u : m->updates()) {
-      MapId segment;
-      auto d = u.agent_id() == agent ? conv::FromMsg(u, &error, &segment) : std::nullopt;
-      if (!d) {
-        Reject(agent, u.agent_id() == agent ? error : "map point update: agent id differs from its batch's");
-        continue;
-      }
-      if (!seen_points_[agent].Seen(d->id.packed(), d->id.counter())) {
-        auto& early = early_[agent].points;
-        if (early.size() >= kMaxEarlyUpdates) early.clear();
-        early[d->id.packed()] = *d;
-        continue;
-      }
-      BatchFor(&batches, agent, segment).map_point_updates.push_back(*d);
-      ++accepted;
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    stats_.agents[agent].map_point_updates += accepted;
-  }
+  const bool got = Drain(*status_reader_, std::numeric_limits<int>::max(), "status",
+                         [&](AgentId agent, const auto& m) { OnStatus(agent, m); });
+  bool data = Drain(*keyframe_reader_, kMaxKeyframesPerCycle, "keyframe",
+                    [&](AgentId agent, const auto& m) { OnKeyframe(agent, m); });
+  data |= Drain(*point_reader_, kMaxBatchesPerCycle, "map points",
+                [&](AgentId agent, const auto& m) { OnPoints(agent, m, &batches); });
+  data |= Drain(*kf_update_reader_, kMaxOtherPerCycle, "keyframe update",
+                [&](AgentId agent, const auto& m) { OnKeyframeUpdate(agent, m, &batches); });
+  data |= Drain(*mp_update_reader_, kMaxBatchesPerCycle, "map point updates",
+                [&](AgentId agent, const auto& m) { OnPointUpdates(agent, m, &batches); });
   if (data) {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_.last_data_s = Elapsed();
   }
-  ReleaseKeyframes(&batches);
+  const auto incomplete = reassembly_.Release(Clock::now(), &batches);
+  if (!incomplete.empty()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [agent, n] : incomplete) stats_.agents[agent].keyframes_released_incomplete += n;
+  }
   SubmitBatches(&batches);
   return got || data;
 }
 
-void ServerComm::SeenIds::Note(uint64_t packed, Clock::time_point now) {
-  if (ids.insert(packed).second) order.emplace_back(now, packed);
-  while (!order.empty() && now - order.front().first > kSeenWindow) {
-    pruned_below = std::max(pruned_below, MapPointId(order.front().second).counter() + 1);  // same layout for every id kind
-    ids.erase(order.front().second);
-    order.pop_front();
+void ServerComm::OnStatus(AgentId agent, const msg::AgentStatus& st) {
+  if (st.protocol_version() != msg::kProtocolVersion) {
+    Reject(agent, VersionMismatch("status", st.protocol_version()));
+    return;
   }
+  const KeyframeId ref(st.ref_kf_id());
+  const MapId segment(st.map_segment_id());
+  if ((ref.valid() && ref.agent() != agent) || (segment.valid() && segment.agent() != agent)) {
+    Reject(agent, "status: reference keyframe or segment of another agent");
+    return;
+  }
+  if (!Admit(agent, "status")) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  AgentLink& link = stats_.agents[agent];
+  ++link.status_msgs;
+  if (ref.valid()) link.reference_kf = ref;
+  if (segment.valid()) {
+    link.segment = segment;
+    link.segments.insert(segment);
+  }
+  link.kfs_created = st.kfs_created();
+  link.kfs_sent = st.kfs_sent();
+  link.kfs_acked = st.kfs_acked();
+  link.kfs_resent = st.kfs_resent();
+  link.kfs_lost = st.kfs_lost();
+  link.tracking_state = st.tracking_state();
 }
 
-bool ServerComm::ApplyToHeld(AgentId agent, const KeyframePoseUpdate& u) {
-  for (HeldKeyframe& h : held_[agent]) {
-    if (h.data.id != u.id) continue;
-    ApplyPoseUpdate(u, &h.data);
-    return true;
+void ServerComm::OnKeyframe(AgentId agent, const msg::KeyframeFull& m) {
+  if (!Admit(agent, "keyframe")) return;
+  std::string error;
+  KeyframeId ref;
+  auto d = conv::FromMsg(m, &cameras_, &error, &ref);
+  if (!d) {
+    Reject(agent, error);
+    return;
   }
-  return false;
+  const MapId segment = d->segment;
+  reassembly_.AddKeyframe(agent, std::move(*d), ref, Clock::now());
+  std::lock_guard<std::mutex> lock(mutex_);
+  AgentLink& link = stats_.agents[agent];
+  ++link.keyframes;
+  link.segments.insert(segment);
 }
 
-void ServerComm::ReleaseKeyframes(std::map<BatchKey, AgentBatch>* batches) {
-  const auto now = Clock::now();
-  for (auto& [agent, held] : held_) {
-    const SeenIds& seen = seen_points_[agent];
-    while (!held.empty()) {
-      const HeldKeyframe& h = held.front();
-      const bool complete = std::all_of(h.data.point_links.begin(), h.data.point_links.end(), [&](const auto& link) {
-        const MapPointId mp = link.second;
-        return mp.agent() != agent || seen.Seen(mp.packed(), mp.counter());
-      });
-      if (!complete && now - h.since < kMaxKeyframeHold) break;  // keep the agent's order
-      if (!complete) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        ++stats_.agents[agent].keyframes_released_incomplete;
-      }
-      AgentBatch& b = BatchFor(batches, agent, h.data.segment);
-      if (h.reference_kf.valid()) b.reference_kf = h.reference_kf;
-      b.keyframes.push_back(std::move(held.front().data));
-      held.pop_front();
+void ServerComm::OnPoints(AgentId agent, const msg::MapPointBatch& m, BatchSet* batches) {
+  if (!Admit(agent, "map points")) return;
+  if (m.protocol_version() != msg::kProtocolVersion) {
+    Reject(agent, VersionMismatch("map point batch", m.protocol_version()));
+    return;
+  }
+  std::string error;
+  int64_t accepted = 0;
+  for (const msg::MapPointFull& p : m.points()) {
+    auto d = p.agent_id() == agent ? conv::FromMsg(p, &error) : std::nullopt;
+    if (!d) {
+      Reject(agent, p.agent_id() == agent ? error : "map point: agent id differs from its batch's");
+      continue;
+    }
+    reassembly_.AddMapPoint(agent, std::move(*d), Clock::now(), batches);
+    ++accepted;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats_.agents[agent].map_points += accepted;
+}
+
+void ServerComm::OnKeyframeUpdate(AgentId agent, const msg::KeyframeUpdate& m, BatchSet* batches) {
+  if (!Admit(agent, "keyframe update")) return;
+  std::string error;
+  auto d = conv::FromMsg(m, &error);
+  if (!d) {
+    Reject(agent, error);
+    return;
+  }
+  if (reassembly_.AddKeyframeUpdate(agent, *d, batches) != KeyframeReassembly::UpdateFate::kBatched) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.agents[agent].keyframe_updates;
+}
+
+void ServerComm::OnPointUpdates(AgentId agent, const msg::MapPointUpdateBatch& m, BatchSet* batches) {
+  if (!Admit(agent, "map point updates")) return;
+  if (m.protocol_version() != msg::kProtocolVersion) {
+    Reject(agent, VersionMismatch("map point update batch", m.protocol_version()));
+    return;
+  }
+  std::string error;
+  int64_t accepted = 0;
+  for (const msg::MapPointUpdate& u : m.updates()) {
+    MapId segment;
+    auto d = u.agent_id() == agent ? conv::FromMsg(u, &error, &segment) : std::nullopt;
+    if (!d) {
+      Reject(agent, u.agent_id() == agent ? error : "map point update: agent id differs from its batch's");
+      continue;
+    }
+    if (reassembly_.AddMapPointUpdate(agent, *d, segment, batches) == KeyframeReassembly::UpdateFate::kBatched) {
+      ++accepted;
     }
   }
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats_.agents[agent].map_point_updates += accepted;
 }
 
-void ServerComm::SubmitBatches(std::map<BatchKey, AgentBatch>* batches) {
-  for (auto& [key, batch] : *batches) {
-    const AgentId agent = key.first;
+void ServerComm::SubmitBatches(BatchSet* batches) {
+  for (AgentBatch& batch : batches->Take()) {
+    const AgentId agent = batch.agent;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       AgentLink& link = stats_.agents[agent];
@@ -397,7 +321,6 @@ void ServerComm::SubmitBatches(std::map<BatchKey, AgentBatch>* batches) {
       ++link.batches_submitted;
     }
   }
-  batches->clear();
 }
 
 void ServerComm::CheckLiveliness() {

@@ -18,12 +18,10 @@
 //    loss an agent got 24 messages in 60 s and left keyframes unacked). A new neighbourhood
 //    does not replace one the agent has not received yet for kNeighbourhoodPatience, so a
 //    lossy link delivers an older neighbourhood instead of none.
-//  * keyframes wait for their points: KFs and points travel on separate reliable streams, so
-//    on a lossy link a keyframe often arrives before the points it created. Registered
-//    without them it has nothing to refine against, and place recognition (which runs
-//    right after registration) would verify it without 3-D points and miss the match
-//    (measured: no fusion at 20% loss). A keyframe is therefore held until every own
-//    point it links has arrived, at most kMaxKeyframeHold, in arrival order.
+//  * reassembly (KeyframeReassembly, keyframe_reassembly.h): keyframes wait for their points,
+//    updates that overtook their data are kept, resends of held keyframes replace them.
+//  * no polling: the readers signal one Wakeup; the comm thread sleeps until a sample
+//    arrives, an agent's next publish time, or a held keyframe's deadline.
 //  * liveliness: an agent that sent nothing (heartbeat included) for liveliness_timeout_s has
 //    left; its maps stay, and it is logged when it returns.
 // Stats() and the counters are readable from any thread.
@@ -46,6 +44,8 @@
 #include "runtime_common/dds_session.h"
 #include "runtime_common/msg_conversion.h"
 #include "runtime_common/typed_endpoints.h"
+#include "runtime_common/wakeup.h"
+#include "server_runtime/keyframe_reassembly.h"
 #include "server_runtime/server_config.h"
 #include "slam_core/server/server_backend.h"
 
@@ -117,44 +117,26 @@ class ServerComm {
   static constexpr std::chrono::seconds kNeighbourhoodPatience{5};
   /// Creates `agent`'s writers on first use; false (logged) if DDS refused.
   bool EnsureWriters(AgentId agent);
-  using BatchKey = std::pair<AgentId, uint64_t>;  // (agent, segment)
-  struct HeldKeyframe {
-    KeyframeData data;
-    KeyframeId reference_kf;
-    std::chrono::steady_clock::time_point since;
-  };
-  /// Ids (keyframes or points) received from one agent in the last kSeenWindow; ids below
-  /// `pruned_below` (counter) count as received (a keyframe rarely links points that old,
-  /// and if it does it waits at most kMaxKeyframeHold).
-  struct SeenIds {
-    std::unordered_set<uint64_t> ids;
-    std::deque<std::pair<std::chrono::steady_clock::time_point, uint64_t>> order;
-    uint64_t pruned_below = 0;
-    void Note(uint64_t packed, std::chrono::steady_clock::time_point now);
-    bool Seen(uint64_t packed, uint64_t counter) const { return counter < pruned_below || ids.count(packed) > 0; }
-  };
-  /// Updates that overtook their full keyframe or point: the BEST_EFFORT update stream has no
-  /// repair delay, so on a lossy link the first local-BA refinement of a keyframe often
-  /// arrives before the keyframe itself, and the back-end would ignore it (measured: 2-4x
-  /// the loss-free ATE). Kept (latest wins) and applied when the full data arrives.
-  struct EarlyUpdates {
-    std::unordered_map<uint64_t, KeyframePoseUpdate> keyframes;
-    std::unordered_map<uint64_t, MapPointPositionUpdate> points;
-  };
-
   ServerComm(ServerConfig config, std::unique_ptr<rt::DdsSession> session, ServerBackend* backend);
   void Run();
+  /// When the comm thread must look again without new samples: the next agent's publish
+  /// time, a held keyframe's deadline, at most kMaxIdle from now.
+  std::chrono::steady_clock::time_point NextWake() const;
   bool Intake();  // returns whether anything arrived
+  /// Pops up to `max` samples of `reader`; each from a valid agent id in its own partition
+  /// goes to handle(agent, msg). Returns whether anything was popped.
+  template <typename Reader, typename Handler>
+  bool Drain(Reader& reader, int max, const char* what, Handler&& handle);
+  void OnStatus(AgentId agent, const msg::AgentStatus& st);
+  void OnKeyframe(AgentId agent, const msg::KeyframeFull& m);
+  void OnPoints(AgentId agent, const msg::MapPointBatch& m, BatchSet* batches);
+  void OnKeyframeUpdate(AgentId agent, const msg::KeyframeUpdate& m, BatchSet* batches);
+  void OnPointUpdates(AgentId agent, const msg::MapPointUpdateBatch& m, BatchSet* batches);
   bool Admit(AgentId agent, const char* what);
   void Reject(AgentId agent, const std::string& reason);
   /// True when `writer` writes in agent `agent`'s partition; otherwise counted and false.
   bool FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer, AgentId agent, const char* what);
-  AgentBatch& BatchFor(std::map<BatchKey, AgentBatch>* batches, AgentId agent, MapId segment);
-  void SubmitBatches(std::map<BatchKey, AgentBatch>* batches);
-  /// A keyframe update for a keyframe still held here changes the held data; true if so.
-  bool ApplyToHeld(AgentId agent, const KeyframePoseUpdate& u);
-  /// Moves held keyframes whose points all arrived (or that waited long enough) to `batches`.
-  void ReleaseKeyframes(std::map<BatchKey, AgentBatch>* batches);
+  void SubmitBatches(BatchSet* batches);
   void PublishToAgents();
   void CheckLiveliness();
   double Elapsed() const;
@@ -162,6 +144,7 @@ class ServerComm {
   const ServerConfig config_;
   std::unique_ptr<rt::DdsSession> session_;  // destroyed last (declared first)
   ServerBackend* backend_;
+  rt::Wakeup wakeup_;  // signalled by every reader and by Stop(); declared before the readers, which use it
   std::unique_ptr<rt::TypedReader<msg::KeyframeFullPubSubType>> keyframe_reader_;
   std::unique_ptr<rt::TypedReader<msg::MapPointBatchPubSubType>> point_reader_;
   std::unique_ptr<rt::TypedReader<msg::KeyframeUpdatePubSubType>> kf_update_reader_;
@@ -174,9 +157,7 @@ class ServerComm {
   // Comm thread.
   conv::CameraCache cameras_;
   std::map<AgentId, AgentState> states_;
-  std::map<AgentId, std::deque<HeldKeyframe>> held_;
-  std::map<AgentId, SeenIds> seen_points_, seen_keyframes_;
-  std::map<AgentId, EarlyUpdates> early_;
+  KeyframeReassembly reassembly_;
   std::set<std::string> logged_kinds_;
   std::set<AgentId> refused_logged_;
 
