@@ -79,23 +79,33 @@ int ServerBackend::Submit(AgentBatch batch) {
                      [&](const MapPointPositionUpdate& u) { return ValidateMapPointPositionUpdate(u, agent); }, &error);
   bool is_new = false;
   std::function<void(AgentId)> callback;
+  // queue_mutex_ and stats_mutex_ are both leaves: a refusal is decided under the first and
+  // counted under the second, never both held.
+  enum class Refused { kNo, kAgent, kQueueFull } refused = Refused::kNo;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     is_new = !queues_.count(agent);
     if (agent == kServerAgent || (is_new && static_cast<int>(queues_.size()) >= options_.max_agents)) {
-      std::lock_guard<std::mutex> slock(stats_mutex_);
+      refused = Refused::kAgent;
+    } else {
+      AgentQueue& q = queues_[agent];
+      if (is_new) q.registration = std::make_unique<AgentRegistration>(agent, &stack_, options_.registration);
+      if (static_cast<int>(q.batches.size()) >= options_.max_queued_batches_per_agent) {
+        refused = Refused::kQueueFull;
+      } else {
+        if (!batch.empty()) q.batches.push_back(std::move(batch));
+        callback = is_new ? on_new_agent_ : nullptr;
+      }
+    }
+  }
+  if (refused != Refused::kNo) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (refused == Refused::kAgent) {
       ++stats_.batches_rejected;
-      return -1;
-    }
-    AgentQueue& q = queues_[agent];
-    if (is_new) q.registration = std::make_unique<AgentRegistration>(agent, &stack_, options_.registration);
-    if (static_cast<int>(q.batches.size()) >= options_.max_queued_batches_per_agent) {
-      std::lock_guard<std::mutex> slock(stats_mutex_);
+    } else {
       ++stats_.agents[agent].batches_dropped;
-      return -1;
     }
-    if (!batch.empty()) q.batches.push_back(std::move(batch));
-    callback = is_new ? on_new_agent_ : nullptr;
+    return -1;
   }
   if (rejected > 0) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
