@@ -104,6 +104,165 @@ class Pacer {
   Clock::time_point start_;
 };
 
+int Error(const std::string& message, int code) {
+  std::cerr << "error: " << message << "\n";
+  return code;
+}
+
+// The relocalization vocabulary: --vocab, else the installed one beside the binary, else the
+// build tree's; none (brute-force relocalization) with --vocab none or when none is built in.
+bool LoadAgentVocabulary(const RunOptions& o, std::shared_ptr<const Vocabulary>* vocabulary, std::string* error) {
+  const std::string path =
+      o.vocabulary.empty() ? rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY) : o.vocabulary;
+  if (path.empty()) {
+    spdlog::info("no vocabulary built in: relocalization matches against every local map point (give --vocab FILE)");
+    return true;
+  }
+  if (o.vocabulary == "none") return true;
+  auto loaded = LoadVocabularyFile(path, error);
+  if (!loaded) {
+    *error = "vocabulary: " + *error + " (give --vocab FILE, or --vocab none for brute-force relocalization)";
+    return false;
+  }
+  *vocabulary = std::make_shared<const Vocabulary>(std::move(*loaded));
+  spdlog::info("relocalization vocabulary {} ({} words)", path, (*vocabulary)->num_words());
+  return true;
+}
+
+// What the tracking loop leaves behind.
+struct Flight {
+  int64_t frames = 0, tracked = 0;
+  std::vector<KeyframePose> ground_truth;  ///< per frame, where the source has it
+  Clock::time_point start;
+};
+
+void LogProgress(const Flight& f, const FrameSource& source, const TrackingResult& last, const AgentVo& vo,
+                 const AgentComm* comm) {
+  const double el = std::chrono::duration<double>(Clock::now() - f.start).count();
+  const auto m = vo.map();
+  std::string link;
+  if (comm) {
+    const AgentCommStats c = comm->Stats();
+    link = fmt::format(" | KFs sent {} acked {} resent {} unacked {} | server msgs {} (+{} KFs)", c.kfs_sent,
+                       c.kfs_acked, c.kfs_resent, c.kfs_unacked, c.server_msgs, c.server_keyframes_received);
+  }
+  spdlog::info("frames {}/{} ({:.1f} fps) state {} tracked {:.1f}% KFs in map {}{}", f.frames, source.size(),
+               f.frames / el, TrackingStateName(last.state), 100.0 * f.tracked / f.frames,
+               m ? m->num_keyframes() : 0, link);
+}
+
+// The tracking thread's loop (this thread): every frame of the source through the VO, at
+// the requested pace, until the end, --max-frames or *stop.
+Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* comm, const volatile bool* stop) {
+  Pacer pacer(o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
+  Flight f;
+  f.start = Clock::now();
+  auto last_progress = f.start;
+  TrackingResult last;
+  bool road_hint_given = false;
+  while (!*stop && (o.max_frames < 0 || f.frames < o.max_frames)) {
+    auto frame = source->Next();
+    if (!frame) break;
+    pacer.Wait(frame->stamp_ns);
+    if (frame->world_from_cam_gt) f.ground_truth.push_back({KeyframeId(), MapId(), frame->stamp_ns, *frame->world_from_cam_gt});
+    last = vo->TrackFrame(*frame);
+    if (comm) comm->SetTrackingState(static_cast<int>(last.state));
+    // Offline at full speed: let mapping finish each keyframe, as it would keep up in real
+    // time; otherwise tracking races ahead on a map that lags behind (seen on KITTI).
+    if (o.rate == "max" && last.new_keyframe) vo->WaitUntilMappingIdle();
+    ++f.frames;
+    f.tracked += last.world_from_cam.has_value();
+    if (last.new_segment) {
+      spdlog::warn("frame {}: relocalization kept failing, continuing on a new map segment", f.frames - 1);
+    }
+    // One default does not fit a road ahead: its matches are mostly distant or on a plane,
+    // and the default initializer waits for parallax that never comes. Say so once.
+    if (!road_hint_given && last.state == TrackingState::kInitializing &&
+        vo->stats().road_like_init_attempts >= kRoadProfileHintAttempts) {
+      road_hint_given = true;
+      spdlog::warn("still initializing after {} frames: most matches are distant or on a plane (a road ahead?); "
+                   "for road vehicles use deploy/config/agent-road.yaml (vo: init_count_distant_points, "
+                   "init_features 4000)", f.frames);
+    }
+    if (Clock::now() - last_progress > std::chrono::duration<double>(o.progress_period_s)) {
+      LogProgress(f, *source, last, *vo, comm);
+      last_progress = Clock::now();
+    }
+  }
+  return f;
+}
+
+// --trajectory-out, --ground-truth-out, --keyframes-out (the agent's own keyframes, not the
+// server's shared ones).
+bool WriteOutputs(const RunOptions& o, const AgentVo& vo, const Flight& f, std::string* error) {
+  if (!o.trajectory_out.empty() && !WriteTum(o.trajectory_out, vo.FrameTrajectory(), error)) return false;
+  if (!o.ground_truth_out.empty() && !WriteTum(o.ground_truth_out, f.ground_truth, error)) return false;
+  std::vector<KeyframePose> own_keyframes;
+  for (const KeyframePose& p : vo.KeyframeTrajectory()) {
+    if (p.id.agent() == o.agent_id) own_keyframes.push_back(p);
+  }
+  return o.keyframes_out.empty() || WriteTum(o.keyframes_out, own_keyframes, error);
+}
+
+nlohmann::json LinkSummary(const AgentComm& comm) {
+  const AgentCommStats c = comm.Stats();
+  return {{"kfs_sent", c.kfs_sent},
+          {"kfs_sent_as_anchors", c.kfs_sent_as_anchors},
+          {"kfs_resent", c.kfs_resent},
+          {"kfs_resent_by_gap_rule", c.kfs_resent_gap},
+          {"kfs_acked", c.kfs_acked},
+          {"ack_ms_median", c.ack_latency.median_ms},
+          {"ack_ms_p95", c.ack_latency.p95_ms},
+          {"ack_ms_max", c.ack_latency.max_ms},
+          {"kfs_unacked", c.kfs_unacked},
+          {"mps_sent", c.mps_sent},
+          {"kf_updates_sent", c.kf_updates_sent},
+          {"mp_updates_sent", c.mp_updates_sent},
+          {"write_failures", c.write_failures},
+          {"server_msgs", c.server_msgs},
+          {"server_msgs_rejected", c.server_msgs_rejected},
+          {"server_keyframes_received", c.server_keyframes_received},
+          {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
+          {"pack_ms_max", c.pack_ms_max}};
+}
+
+// The summary line printed on stdout at the end (and its log lines).
+nlohmann::json Summary(const RunOptions& o, const Flight& f, const AgentVoStats& s, const AgentComm* comm) {
+  const double wall_s = std::chrono::duration<double>(Clock::now() - f.start).count();
+  spdlog::info("done: {} frames in {:.1f} s, tracked {:.1f}%, {} keyframes ({} culled, {} lost), {} segments", f.frames,
+               wall_s, f.frames ? 100.0 * f.tracked / f.frames : 0.0, s.keyframes_created, s.mapping.keyframes_culled,
+               s.trim.removed_lost, s.segments);
+  spdlog::info("tracking ms/frame: median {:.1f} p95 {:.1f}; local mapping ms/keyframe: median {:.1f} p95 {:.1f}",
+               Percentile(s.tracking_ms, 0.5), Percentile(s.tracking_ms, 0.95), Percentile(s.mapping_ms, 0.5),
+               Percentile(s.mapping_ms, 0.95));
+  nlohmann::json summary = {{"agent_id", o.agent_id},
+                            {"frames", f.frames},
+                            {"tracked", f.tracked},
+                            {"keyframes_created", s.keyframes_created},
+                            {"keyframes_in_map", s.keyframes_in_map},
+                            {"keyframes_culled", s.mapping.keyframes_culled},
+                            {"map_points_in_map", s.map_points_in_map},
+                            {"keyframes_lost", s.trim.removed_lost},
+                            {"segments", s.segments},
+                            {"relocalizations", s.relocalizations},
+                            {"server_keyframes_added", s.server.keyframes_added},
+                            {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
+                            {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},
+                            {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},
+                            {"mapping_ms_p95", Percentile(s.mapping_ms, 0.95)},
+                            {"wall_s", wall_s}};
+  nlohmann::json reasons = nlohmann::json::object();
+  for (size_t k = 1; k < s.keyframe_reasons.size(); ++k) {
+    reasons[KeyframeReasonName(static_cast<KeyframeReason>(k))] = s.keyframe_reasons[k];
+  }
+  summary["keyframe_reasons"] = reasons;
+  if (comm) {
+    summary["link"] = LinkSummary(*comm);
+    for (const auto& t : comm->Traffic()) summary["traffic"][t.topic + ":" + t.direction] = t.payload_bytes;
+  }
+  return summary;
+}
+
 }  // namespace
 
 std::string RunOptions::Validate() const {
@@ -126,21 +285,12 @@ std::string RunOptions::Validate() const {
 
 int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::SessionOptions* session,
              const volatile bool* stop) {
-  if (const std::string problem = o.Validate(); !problem.empty()) {
-    std::cerr << "error: " << problem << "\n";
-    return 2;
-  }
+  if (const std::string problem = o.Validate(); !problem.empty()) return Error(problem, 2);
   std::string error;
   auto source = OpenSource(o, &error);
-  if (!source) {
-    std::cerr << "error: " << error << "\n";
-    return 2;
-  }
+  if (!source) return Error(error, 2);
   std::shared_ptr<const CameraModel> camera(MakeCamera(source->intrinsics()));
-  if (!camera) {
-    std::cerr << "error: invalid camera calibration: " << ValidateIntrinsics(source->intrinsics()) << "\n";
-    return 2;
-  }
+  if (!camera) return Error("invalid camera calibration: " + ValidateIntrinsics(source->intrinsics()), 2);
   // Connected: the server's acknowledgements decide when keyframes may leave the local map.
   // Standalone: every keyframe may leave once older than N; --no-acks keeps them buffered as
   // for an unreachable server (up to N+B, then lost).
@@ -151,83 +301,23 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
                           : o.no_acks ? static_cast<const AckSource&>(ack_none)
                                       : static_cast<const AckSource&>(ack_all);
   std::shared_ptr<const Vocabulary> vocabulary;
-  // Default: the installed vocabulary beside the binary, else the build tree's.
-  const std::string vocabulary_path =
-      o.vocabulary.empty() ? rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY) : o.vocabulary;
-  if (vocabulary_path.empty()) {
-    spdlog::info("no vocabulary built in: relocalization matches against every local map point (give --vocab FILE)");
-  } else if (o.vocabulary != "none") {
-    const std::string& path = vocabulary_path;
-    auto loaded = LoadVocabularyFile(path, &error);
-    if (!loaded) {
-      std::cerr << "error: vocabulary: " << error << " (give --vocab FILE, or --vocab none for brute-force relocalization)\n";
-      return 2;
-    }
-    vocabulary = std::make_shared<const Vocabulary>(std::move(*loaded));
-    spdlog::info("relocalization vocabulary {} ({} words)", path, vocabulary->num_words());
-  }
+  if (!LoadAgentVocabulary(o, &vocabulary, &error)) return Error(error, 2);
   AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false, vocabulary);
   std::unique_ptr<AgentComm> comm;
   if (comm_config) {
     comm = AgentComm::Create(*comm_config, *session, &vo, &tracker, &error);
-    if (!comm) {
-      std::cerr << "error: " << error << "\n";
-      return 1;
-    }
+    if (!comm) return Error(error, 1);
     comm->Start();
   }
+  spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
+               !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
+               camera->width(), camera->height(), CameraTypeName(camera->type()));
+  // The local-mapping thread: started and joined here.
   std::atomic<bool> mapping_run{true};
   std::thread mapping([&] {
     while (mapping_run) vo.RunMappingOnce(std::chrono::milliseconds(100));
   });
-  Pacer pacer(o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
-  const auto start = Clock::now();
-  auto last_progress = start;
-  int64_t frames = 0, tracked = 0;
-  TrackingResult last;
-  std::vector<KeyframePose> ground_truth;
-  spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
-               !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
-               camera->width(), camera->height(), CameraTypeName(camera->type()));
-  bool road_hint_given = false;
-  while (!*stop && (o.max_frames < 0 || frames < o.max_frames)) {
-    auto frame = source->Next();
-    if (!frame) break;
-    pacer.Wait(frame->stamp_ns);
-    if (frame->world_from_cam_gt) ground_truth.push_back({KeyframeId(), MapId(), frame->stamp_ns, *frame->world_from_cam_gt});
-    last = vo.TrackFrame(*frame);
-    if (comm) comm->SetTrackingState(static_cast<int>(last.state));
-    // Offline at full speed: let mapping finish each keyframe, as it would keep up in real
-    // time; otherwise tracking races ahead on a map that lags behind (seen on KITTI).
-    if (o.rate == "max" && last.new_keyframe) vo.WaitUntilMappingIdle();
-    ++frames;
-    tracked += last.world_from_cam.has_value();
-    if (last.new_segment) {
-      spdlog::warn("frame {}: relocalization kept failing, continuing on a new map segment", frames - 1);
-    }
-    // One default does not fit a road ahead: its matches are mostly distant or on a plane,
-    // and the default initializer waits for parallax that never comes. Say so once.
-    if (!road_hint_given && last.state == TrackingState::kInitializing &&
-        vo.stats().road_like_init_attempts >= kRoadProfileHintAttempts) {
-      road_hint_given = true;
-      spdlog::warn("still initializing after {} frames: most matches are distant or on a plane (a road ahead?); "
-                   "for road vehicles use deploy/config/agent-road.yaml (vo: init_count_distant_points, "
-                   "init_features 4000)", frames);
-    }
-    if (Clock::now() - last_progress > std::chrono::duration<double>(o.progress_period_s)) {
-      const double el = std::chrono::duration<double>(Clock::now() - start).count();
-      const auto m = vo.map();
-      std::string link;
-      if (comm) {
-        const AgentCommStats c = comm->Stats();
-        link = fmt::format(" | KFs sent {} acked {} resent {} unacked {} | server msgs {} (+{} KFs)", c.kfs_sent,
-                           c.kfs_acked, c.kfs_resent, c.kfs_unacked, c.server_msgs, c.server_keyframes_received);
-      }
-      spdlog::info("frames {}/{} ({:.1f} fps) state {} tracked {:.1f}% KFs in map {}{}", frames, source->size(),
-                   frames / el, TrackingStateName(last.state), 100.0 * tracked / frames, m ? m->num_keyframes() : 0, link);
-      last_progress = Clock::now();
-    }
-  }
+  const Flight flight = Fly(o, source.get(), &vo, comm.get(), stop);
   vo.WaitUntilMappingIdle();
   mapping_run = false;
   vo.Stop();
@@ -240,78 +330,9 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
     comm->Stop();
     if (!drained) spdlog::warn("{} keyframes still unacknowledged after {:.0f} s", comm->Stats().kfs_unacked, o.drain_s);
   }
-  if (!source->error().empty()) {
-    std::cerr << "error: " << source->error() << "\n";
-    return 1;
-  }
-  const AgentVoStats s = vo.stats();
-  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  if (!o.trajectory_out.empty() && !WriteTum(o.trajectory_out, vo.FrameTrajectory(), &error)) {
-    std::cerr << "error: " << error << "\n";
-    return 1;
-  }
-  if (!o.ground_truth_out.empty() && !WriteTum(o.ground_truth_out, ground_truth, &error)) {
-    std::cerr << "error: " << error << "\n";
-    return 1;
-  }
-  std::vector<KeyframePose> own_keyframes;
-  for (const KeyframePose& p : vo.KeyframeTrajectory()) {
-    if (p.id.agent() == o.agent_id) own_keyframes.push_back(p);  // not the server's shared ones
-  }
-  if (!o.keyframes_out.empty() && !WriteTum(o.keyframes_out, own_keyframes, &error)) {
-    std::cerr << "error: " << error << "\n";
-    return 1;
-  }
-  spdlog::info("done: {} frames in {:.1f} s, tracked {:.1f}%, {} keyframes ({} culled, {} lost), {} segments", frames,
-               wall_s, frames ? 100.0 * tracked / frames : 0.0, s.keyframes_created, s.mapping.keyframes_culled,
-               s.trim.removed_lost, s.segments);
-  spdlog::info("tracking ms/frame: median {:.1f} p95 {:.1f}; local mapping ms/keyframe: median {:.1f} p95 {:.1f}",
-               Percentile(s.tracking_ms, 0.5), Percentile(s.tracking_ms, 0.95), Percentile(s.mapping_ms, 0.5),
-               Percentile(s.mapping_ms, 0.95));
-  nlohmann::json summary = {{"agent_id", o.agent_id},
-                            {"frames", frames},
-                            {"tracked", tracked},
-                            {"keyframes_created", s.keyframes_created},
-                            {"keyframes_in_map", s.keyframes_in_map},
-                            {"keyframes_culled", s.mapping.keyframes_culled},
-                            {"map_points_in_map", s.map_points_in_map},
-                            {"keyframes_lost", s.trim.removed_lost},
-                            {"segments", s.segments},
-                            {"relocalizations", s.relocalizations},
-                            {"server_keyframes_added", s.server.keyframes_added},
-                            {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
-                            {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},
-                            {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},
-                            {"mapping_ms_p95", Percentile(s.mapping_ms, 0.95)},
-                            {"wall_s", wall_s}};
-  nlohmann::json reasons = nlohmann::json::object();
-  for (size_t k = 1; k < s.keyframe_reasons.size(); ++k) {
-    reasons[KeyframeReasonName(static_cast<KeyframeReason>(k))] = s.keyframe_reasons[k];
-  }
-  summary["keyframe_reasons"] = reasons;
-  if (comm) {
-    const AgentCommStats c = comm->Stats();
-    summary["link"] = {{"kfs_sent", c.kfs_sent},
-                       {"kfs_sent_as_anchors", c.kfs_sent_as_anchors},
-                       {"kfs_resent", c.kfs_resent},
-                       {"kfs_resent_by_gap_rule", c.kfs_resent_gap},
-                       {"kfs_acked", c.kfs_acked},
-                       {"ack_ms_median", c.ack_latency.median_ms},
-                       {"ack_ms_p95", c.ack_latency.p95_ms},
-                       {"ack_ms_max", c.ack_latency.max_ms},
-                       {"kfs_unacked", c.kfs_unacked},
-                       {"mps_sent", c.mps_sent},
-                       {"kf_updates_sent", c.kf_updates_sent},
-                       {"mp_updates_sent", c.mp_updates_sent},
-                       {"write_failures", c.write_failures},
-                       {"server_msgs", c.server_msgs},
-                       {"server_msgs_rejected", c.server_msgs_rejected},
-                       {"server_keyframes_received", c.server_keyframes_received},
-                       {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
-                       {"pack_ms_max", c.pack_ms_max}};
-    for (const auto& t : comm->Traffic()) summary["traffic"][t.topic + ":" + t.direction] = t.payload_bytes;
-  }
-  std::cout << summary.dump() << std::endl;
+  if (!source->error().empty()) return Error(source->error(), 1);
+  if (!WriteOutputs(o, vo, flight, &error)) return Error(error, 1);
+  std::cout << Summary(o, flight, vo.stats(), comm.get()).dump() << std::endl;
   return drained ? 0 : 3;
 }
 

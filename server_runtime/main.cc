@@ -85,195 +85,258 @@ void LogProgress(const ccm::ServerBackend& backend, const ccm::server::ServerCom
   spdlog::info("{:.0f} s: maps {} ({} KFs), fusions {}, loops {}, global BAs {}{}", comm.elapsed_s, maps.size(), kfs,
                stats.fusions, stats.loops, stats.global_ba_applied, agents);
 }
-}  // namespace
+using namespace ccm;
 
-int main(int argc, char** argv) {
-  using namespace ccm;
+// The command line and what it resolves to.
+struct ServerArgs {
   server::ServerConfig config;
   rt::SessionOptions session;
   std::string config_path, out_dir;
   double duration_s = 0.0, idle_exit_s = 0.0, progress_s = 2.0;
   bool no_final_ba = false;
   server::MapViewServerOptions map_view;
-  CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
-  app.add_option("-c,--config", config_path, "YAML config file (keys: see docs/configuration.md)")
-      ->check(CLI::ExistingFile);
-  auto* domain_opt = app.add_option("--domain", config.domain_id, "DDS domain id (overrides the config)");
-  auto* qos_opt = app.add_option("--qos", config.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
-  auto* security_opt = app.add_option("--security-dir", config.security_dir,
-                                     "DDS-Security directory of this participant (docs/security.md; overrides the config)");
-  auto* log_opt = app.add_option("--log-level", config.log_level, "trace, debug, info, warn, error, off");
-  auto* participant_opt = app.add_option("--participant-profile", config.participant_profile,
-                                         "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
-  auto* vocab_opt = app.add_option("--vocab", config.vocabulary, "bag-of-words vocabulary (default: the built-in one)");
-  auto* load_opt = app.add_option("--load-map", config.load_map, "start from this saved map stack")
-                       ->check(CLI::ExistingFile);
-  auto* save_opt = app.add_option("--save-map", config.save_map, "save the map stack here on exit");
-  auto* map_file_opt = app.add_option("--map-file", config.map_file,
-                                      "daemon map stack: loaded if it exists, autosaved, saved on exit");
-  auto* autosave_opt = app.add_option("--autosave", config.autosave_s, "autosave period [s] (0: only on exit)");
-  app.add_option("--out", out_dir, "on exit write trajectories (TUM), summary.json, server.json, map.ply, map_top.png");
-  app.add_flag("--no-final-ba", no_final_ba, "skip the global BA of every map on exit");
-  app.add_option("--duration", duration_s, "stop after this many seconds (0: until Ctrl-C)");
-  app.add_option("--idle-exit", idle_exit_s,
-                 "stop once every agent has left and no data arrived for this long, after the first [s]");
-  app.add_option("--progress", progress_s, "progress line period [s]")->capture_default_str();
-  app.add_option("--drop", session.fault.drop_probability, "fault injection: drop probability of received datagrams");
-  app.add_option("--delay-ms", session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
-  server::AddMapViewOptions(&app, &map_view);
-  CLI11_PARSE(app, argc, argv);
-  google::InitGoogleLogging(argv[0]);
-  FLAGS_minloglevel = google::GLOG_ERROR;  // Ceres' rejected-step warnings are noise here
-  FLAGS_logtostderr = true;
+};
 
-  std::string error;
-  if (!config_path.empty()) {
-    server::ServerConfig from_file;
-    if (!server::LoadServerConfig(config_path, &from_file, &error)) return Fail(error);
-    const server::ServerConfig cli = config;
-    config = from_file;  // the command line wins over the file
-    if (*domain_opt) config.domain_id = cli.domain_id;
-    if (*qos_opt) config.qos_file = cli.qos_file;
-    if (*security_opt) config.security_dir = cli.security_dir;
-    if (*log_opt) config.log_level = cli.log_level;
-    if (*participant_opt) config.participant_profile = cli.participant_profile;
-    if (*vocab_opt) config.vocabulary = cli.vocabulary;
-    if (*load_opt) config.load_map = cli.load_map;
-    if (*save_opt) config.save_map = cli.save_map;
-    if (*map_file_opt) config.map_file = cli.map_file;
-    if (*autosave_opt) config.autosave_s = cli.autosave_s;
+// Options given on the command line win over the config file's keys.
+struct GivenOnCommandLine {
+  CLI::Option *domain, *qos, *security, *log, *participant, *vocab, *load, *save, *map_file, *autosave;
+};
+
+GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
+  server::ServerConfig& c = a->config;
+  GivenOnCommandLine g{};
+  app->add_option("-c,--config", a->config_path, "YAML config file (keys: see docs/configuration.md)")
+      ->check(CLI::ExistingFile);
+  g.domain = app->add_option("--domain", c.domain_id, "DDS domain id (overrides the config)");
+  g.qos = app->add_option("--qos", c.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
+  g.security = app->add_option("--security-dir", c.security_dir,
+                               "DDS-Security directory of this participant (docs/security.md; overrides the config)");
+  g.log = app->add_option("--log-level", c.log_level, "trace, debug, info, warn, error, off");
+  g.participant = app->add_option("--participant-profile", c.participant_profile,
+                                  "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
+  g.vocab = app->add_option("--vocab", c.vocabulary, "bag-of-words vocabulary (default: the built-in one)");
+  g.load = app->add_option("--load-map", c.load_map, "start from this saved map stack")->check(CLI::ExistingFile);
+  g.save = app->add_option("--save-map", c.save_map, "save the map stack here on exit");
+  g.map_file = app->add_option("--map-file", c.map_file, "daemon map stack: loaded if it exists, autosaved, saved on exit");
+  g.autosave = app->add_option("--autosave", c.autosave_s, "autosave period [s] (0: only on exit)");
+  app->add_option("--out", a->out_dir,
+                  "on exit write trajectories (TUM), summary.json, server.json, map.ply, map_top.png");
+  app->add_flag("--no-final-ba", a->no_final_ba, "skip the global BA of every map on exit");
+  app->add_option("--duration", a->duration_s, "stop after this many seconds (0: until Ctrl-C)");
+  app->add_option("--idle-exit", a->idle_exit_s,
+                  "stop once every agent has left and no data arrived for this long, after the first [s]");
+  app->add_option("--progress", a->progress_s, "progress line period [s]")->capture_default_str();
+  app->add_option("--drop", a->session.fault.drop_probability, "fault injection: drop probability of received datagrams");
+  app->add_option("--delay-ms", a->session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
+  server::AddMapViewOptions(app, &a->map_view);
+  return g;
+}
+
+// The config file's keys, overridden by what the command line gave.
+bool MergeConfigFile(const GivenOnCommandLine& g, ServerArgs* a, std::string* error) {
+  if (a->config_path.empty()) return true;
+  server::ServerConfig from_file;
+  if (!server::LoadServerConfig(a->config_path, &from_file, error)) return false;
+  const server::ServerConfig cli = a->config;
+  server::ServerConfig& c = a->config;
+  c = from_file;
+  if (*g.domain) c.domain_id = cli.domain_id;
+  if (*g.qos) c.qos_file = cli.qos_file;
+  if (*g.security) c.security_dir = cli.security_dir;
+  if (*g.log) c.log_level = cli.log_level;
+  if (*g.participant) c.participant_profile = cli.participant_profile;
+  if (*g.vocab) c.vocabulary = cli.vocabulary;
+  if (*g.load) c.load_map = cli.load_map;
+  if (*g.save) c.save_map = cli.save_map;
+  if (*g.map_file) c.map_file = cli.map_file;
+  if (*g.autosave) c.autosave_s = cli.autosave_s;
+  return true;
+}
+
+// Defaults that depend on other keys (vocabulary, map file, fault injection from the
+// environment), validation, logging, and the DDS session's options.
+bool Resolve(ServerArgs* a, std::string* error) {
+  server::ServerConfig& c = a->config;
+  if (c.vocabulary.empty()) c.vocabulary = rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
+  if (std::string problem = c.Validate(); !problem.empty()) return *error = problem, false;
+  if (std::string problem = a->map_view.Validate(); a->map_view.port != -1 && !problem.empty()) {
+    return *error = problem, false;
   }
-  if (config.vocabulary.empty()) config.vocabulary = rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
-  if (const std::string problem = config.Validate(); !problem.empty()) return Fail(problem);
-  if (const std::string problem = map_view.Validate(); map_view.port != -1 && !problem.empty()) return Fail(problem);
-  if (config.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
-  if (!rt::SetupLogging(config.log_level, &error)) return Fail(error);
-  if (!config.map_file.empty()) {
-    if (config.save_map.empty()) config.save_map = config.map_file;
-    if (config.load_map.empty()) {
-      if (std::filesystem::exists(config.map_file)) {
-        config.load_map = config.map_file;
+  if (c.vocabulary.empty()) return *error = "no vocabulary: give --vocab FILE (train one with ccm_vocab train)", false;
+  if (!rt::SetupLogging(c.log_level, error)) return false;
+  if (!c.map_file.empty()) {
+    if (c.save_map.empty()) c.save_map = c.map_file;
+    if (c.load_map.empty()) {
+      if (std::filesystem::exists(c.map_file)) {
+        c.load_map = c.map_file;
       } else {
-        spdlog::info("no saved map stack at {}: starting with an empty one", config.map_file);
+        spdlog::info("no saved map stack at {}: starting with an empty one", c.map_file);
       }
     }
   }
-  if (session.fault.drop_probability == 0.0 && session.fault.delay_ms == 0.0) {
-    auto env = rt::FaultOptions::FromEnvironment(&error);
-    if (!env) return Fail(error);
-    session.fault = *env;
+  if (a->session.fault.drop_probability == 0.0 && a->session.fault.delay_ms == 0.0) {
+    auto env = rt::FaultOptions::FromEnvironment(error);
+    if (!env) return false;
+    a->session.fault = *env;
   }
-  session.domain_id = config.domain_id;
-  session.qos_file = config.qos_file;
-  session.security_dir = config.security_dir;
-  session.participant_profile = config.participant_profile;
+  a->session.domain_id = c.domain_id;
+  a->session.qos_file = c.qos_file;
+  a->session.security_dir = c.security_dir;
+  a->session.participant_profile = c.participant_profile;
+  return true;
+}
 
-  auto loaded = LoadVocabularyFile(config.vocabulary, &error);
-  if (!loaded) return Fail(error);
-  auto vocabulary = std::make_shared<const Vocabulary>(std::move(*loaded));
+// The back-end, empty or loaded from the saved map stack.
+std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
+                                           std::shared_ptr<const Vocabulary> vocabulary, std::string* error) {
   ServerOptions options;
   options.max_agents = config.max_agents;
   options.neighbourhood_k = config.neighbourhood_k;
+  if (config.load_map.empty()) return std::make_unique<ServerBackend>(vocabulary, options);
+  auto backend = ServerBackend::Load(config.load_map, vocabulary, options, error);
+  if (!backend) return nullptr;
+  size_t kfs = 0;
+  for (const auto& m : backend->Maps()) kfs += m.keyframes;
+  spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, backend->Maps().size(), kfs,
+               backend->agents().size());
+  return backend;
+}
+
+// What runs while the daemon is up. Destroyed in reverse order: the map view and the status
+// writer before the comm module, the comm module before the stage threads and the back-end.
+struct Services {
   std::unique_ptr<ServerBackend> backend;
-  if (!config.load_map.empty()) {
-    backend = ServerBackend::Load(config.load_map, vocabulary, options, &error);
-    if (!backend) return Fail(error, 1);
-    size_t kfs = 0;
-    for (const auto& m : backend->Maps()) kfs += m.keyframes;
-    spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, backend->Maps().size(), kfs,
-                 backend->agents().size());
-  } else {
-    backend = std::make_unique<ServerBackend>(vocabulary, options);
-  }
-  auto runner = std::make_unique<server::BackendRunner>(backend.get());
-  auto comm = server::ServerComm::Create(config, session, backend.get(), &error);
-  if (!comm) return Fail(error, 1);
-  auto status = server::StatusPublisher::Create(comm->session(), &error);
-  if (!status) return Fail(error, 1);
+  std::unique_ptr<server::BackendRunner> runner;
+  std::unique_ptr<server::ServerComm> comm;
+  std::unique_ptr<server::StatusPublisher> status;
+  std::unique_ptr<server::MapViewServer> view;
+};
+
+// Everything after the back-end: stage threads, DDS, status writer, map view; then intake starts.
+bool StartServices(const ServerArgs& a, Services* s, std::string* error) {
+  s->runner = std::make_unique<server::BackendRunner>(s->backend.get());
+  s->comm = server::ServerComm::Create(a.config, a.session, s->backend.get(), error);
+  if (!s->comm) return false;
+  s->status = server::StatusPublisher::Create(s->comm->session(), error);
+  if (!s->status) return false;
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  if (session.fault.enabled()) spdlog::warn("fault injection active: {}", session.fault.ToString());
+  if (a.session.fault.enabled()) spdlog::warn("fault injection active: {}", a.session.fault.ToString());
   spdlog::info("server up on domain {} (QoS {}, vocabulary {}: {} words, max {} agents, map sharing k = {})",
-               config.domain_id, comm->session().options().qos_file, config.vocabulary, vocabulary->num_words(),
-               config.max_agents, config.map_sharing ? config.neighbourhood_k : 0);
-  std::unique_ptr<server::MapViewServer> view;
-  if (map_view.enabled()) {
-    const server::ServerComm* comm_ptr = comm.get();
-    view = server::MapViewServer::Start(map_view, backend.get(), [comm_ptr] {
-      return server::MapViewHostStatus(comm_ptr->Stats(), comm_ptr->Traffic());
-    }, &error);
-    if (!view) return Fail(error, 1);
-    spdlog::info("map view on {}", view->url());
+               a.config.domain_id, s->comm->session().options().qos_file, a.config.vocabulary,
+               s->backend->vocabulary().num_words(), a.config.max_agents,
+               a.config.map_sharing ? a.config.neighbourhood_k : 0);
+  if (a.map_view.enabled()) {
+    const server::ServerComm* comm = s->comm.get();
+    s->view = server::MapViewServer::Start(a.map_view, s->backend.get(), [comm] {
+      return server::MapViewHostStatus(comm->Stats(), comm->Traffic());
+    }, error);
+    if (!s->view) return false;
+    spdlog::info("map view on {}", s->view->url());
   }
-  comm->Start();
+  s->comm->Start();
+  return true;
+}
 
+// The main thread's duties until a signal, --duration or --idle-exit: progress lines, the
+// status sample for ccm_ctl, autosave. Autosave runs while the stages run:
+// MapPersistence::Save copies each map under its shared structure lock, and the file is
+// written to a temporary and renamed, so a crash or power cut leaves the previous file.
+void RunUntilStopped(const ServerArgs& a, const Services& s) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  auto next_progress = start + std::chrono::duration<double>(progress_s);
+  const auto seconds = [](double s) { return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)); };
+  auto next_progress = start + seconds(a.progress_s);
   auto next_status = start;
-  const auto status_period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.status_period_s));
-  const auto autosave_period = std::chrono::duration<double>(config.autosave_s);
-  auto next_autosave = start + std::chrono::duration_cast<Clock::duration>(autosave_period);
+  auto next_autosave = start + seconds(a.config.autosave_s);
   server::DaemonInfo daemon;
-  daemon.map_file = config.save_map;
-  int64_t saved_version = StackVersion(*backend);
+  daemon.map_file = a.config.save_map;
+  int64_t saved_version = StackVersion(*s.backend);
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    const auto stats = comm->Stats();
+    const auto stats = s.comm->Stats();
     const auto now = Clock::now();
     if (now >= next_progress) {
-      LogProgress(*backend, stats);
-      next_progress = now + std::chrono::duration<double>(progress_s);
+      LogProgress(*s.backend, stats);
+      next_progress = now + seconds(a.progress_s);
     }
     if (now >= next_status) {
       daemon.uptime_s = stats.elapsed_s;
-      status->Publish(server::MakeServerStatus(*backend, stats, comm->Traffic(), daemon));
-      next_status = now + status_period;
+      s.status->Publish(server::MakeServerStatus(*s.backend, stats, s.comm->Traffic(), daemon));
+      next_status = now + seconds(a.config.status_period_s);
     }
-    // Autosave from this thread while the stages run: MapPersistence::Save copies each map
-    // under its shared structure lock, and the file is written to a temporary and renamed,
-    // so a crash or power cut leaves the previous complete file.
-    if (config.autosave_s > 0.0 && !config.save_map.empty() && now >= next_autosave) {
-      const int64_t version = StackVersion(*backend);
-      if (version != saved_version && SaveMapStack(*backend, config.save_map, "autosave")) {
+    if (a.config.autosave_s > 0.0 && !a.config.save_map.empty() && now >= next_autosave) {
+      const int64_t version = StackVersion(*s.backend);
+      if (version != saved_version && SaveMapStack(*s.backend, a.config.save_map, "autosave")) {
         saved_version = version;
         daemon.last_save_s = stats.elapsed_s;
       }
-      next_autosave = Clock::now() + std::chrono::duration_cast<Clock::duration>(autosave_period);
+      next_autosave = Clock::now() + seconds(a.config.autosave_s);
     }
-    if (duration_s > 0.0 && stats.elapsed_s >= duration_s) break;
-    const bool anyone_alive = std::any_of(stats.agents.begin(), stats.agents.end(), [](const auto& a) { return a.second.alive; });
-    if (idle_exit_s > 0.0 && stats.last_data_s >= 0.0 && !anyone_alive && stats.elapsed_s - stats.last_data_s >= idle_exit_s &&
-        backend->Idle()) {
-      spdlog::info("every agent left and no data for {:.0f} s: stopping", idle_exit_s);
+    if (a.duration_s > 0.0 && stats.elapsed_s >= a.duration_s) break;
+    const bool anyone_alive =
+        std::any_of(stats.agents.begin(), stats.agents.end(), [](const auto& agent) { return agent.second.alive; });
+    if (a.idle_exit_s > 0.0 && stats.last_data_s >= 0.0 && !anyone_alive &&
+        stats.elapsed_s - stats.last_data_s >= a.idle_exit_s && s.backend->Idle()) {
+      spdlog::info("every agent left and no data for {:.0f} s: stopping", a.idle_exit_s);
       break;
     }
   }
+}
+
+// Stops intake, finishes the queued work (and a final global BA of every map), saves the
+// map stack and writes the outputs. Returns the exit code.
+int Shutdown(const ServerArgs& a, Services* s, std::chrono::steady_clock::time_point start) {
   spdlog::info("stopping{}: finishing queued work", g_stop ? " on a signal" : "");
-  if (view) view->Stop();  // before the comm module its status reads
-  comm->Stop();
-  runner->Stop();
-  backend->ProcessAllQueued();
-  if (!no_final_ba) {
-    for (const auto& m : backend->Maps()) {
-      if (m.keyframes >= 3) backend->ScheduleGlobalBa(m.id);
+  if (s->view) s->view->Stop();  // before the comm module its status reads
+  s->comm->Stop();
+  s->runner->Stop();
+  ServerBackend& backend = *s->backend;
+  backend.ProcessAllQueued();
+  if (!a.no_final_ba) {
+    for (const auto& m : backend.Maps()) {
+      if (m.keyframes >= 3) backend.ScheduleGlobalBa(m.id);
     }
-    backend->ProcessAllQueued();
+    backend.ProcessAllQueued();
   }
-  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  const auto comm_stats = comm->Stats();
-  const auto traffic = comm->Traffic();
-  LogProgress(*backend, comm_stats);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto comm_stats = s->comm->Stats();
+  const auto traffic = s->comm->Traffic();
+  LogProgress(backend, comm_stats);
   int code = 0;
-  if (!config.save_map.empty() && !SaveMapStack(*backend, config.save_map, "exit")) code = 1;
-  if (!out_dir.empty()) {
-    if (server::WriteServerOutputs(out_dir, *backend, comm_stats, traffic, wall_s, &error)) {
-      spdlog::info("outputs in {}", out_dir);
+  if (!a.config.save_map.empty() && !SaveMapStack(backend, a.config.save_map, "exit")) code = 1;
+  std::string error;
+  if (!a.out_dir.empty()) {
+    if (server::WriteServerOutputs(a.out_dir, backend, comm_stats, traffic, wall_s, &error)) {
+      spdlog::info("outputs in {}", a.out_dir);
     } else {
       spdlog::error("writing outputs failed: {}", error);
       code = 1;
     }
   }
-  std::cout << server::CommSummaryJson(comm_stats, traffic, backend->stats()) << std::endl;
+  std::cout << server::CommSummaryJson(comm_stats, traffic, backend.stats()) << std::endl;
   return code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ServerArgs args;
+  CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
+  const GivenOnCommandLine given = AddOptions(&app, &args);
+  CLI11_PARSE(app, argc, argv);
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_minloglevel = google::GLOG_ERROR;  // Ceres' rejected-step warnings are noise here
+  FLAGS_logtostderr = true;
+  std::string error;
+  if (!MergeConfigFile(given, &args, &error) || !Resolve(&args, &error)) return Fail(error);
+  auto vocabulary = LoadVocabularyFile(args.config.vocabulary, &error);
+  if (!vocabulary) return Fail(error);
+  Services services;
+  services.backend =
+      OpenBackend(args.config, std::make_shared<const Vocabulary>(std::move(*vocabulary)), &error);
+  if (!services.backend || !StartServices(args, &services, &error)) return Fail(error, 1);
+  const auto start = std::chrono::steady_clock::now();
+  RunUntilStopped(args, services);
+  return Shutdown(args, &services, start);
 }
