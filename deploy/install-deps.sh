@@ -1,18 +1,27 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages ccm-slam-dds needs (only those missing). Uses sudo when
 # not root. Nothing is downloaded from anywhere but the Debian archive.
+# --demo: only what building and running the binaries needs (deploy/run-demo.sh), not what
+# only the tests need (GoogleTest, Chromium for the map view page test, the packaging tools).
 set -euo pipefail
+demo_only=0
+[ "${1:-}" = "--demo" ] && demo_only=1
 
 PACKAGES=(
   cmake g++ make ccache pkg-config
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libeigen3-dev libopencv-dev libceres-dev libsuitesparse-dev libopengv-dev
-  libgtest-dev libgmock-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev libcereal-dev
+  libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev libcereal-dev
   python3 openssl
-  dpkg-dev file  # Debian packages (cpack DEB: dpkg-shlibdeps, file); ctest packaging_debian
-  # Live map view (docs/map-view.md): HTTP server, three.js for the page, Chromium for its test.
-  libcpp-httplib-dev libjs-three chromium
+  # Live map view (docs/map-view.md): HTTP server, three.js for the page.
+  libcpp-httplib-dev libjs-three
 )
+TEST_PACKAGES=(
+  libgtest-dev libgmock-dev
+  dpkg-dev file  # Debian packages (cpack DEB: dpkg-shlibdeps, file); ctest packaging_debian
+  chromium       # the map view page in a headless browser (ctest MapViewPage.*)
+)
+[ "$demo_only" = 1 ] || PACKAGES+=("${TEST_PACKAGES[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

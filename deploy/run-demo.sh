@@ -12,8 +12,9 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build}"
-"$ROOT/deploy/install-deps.sh"
-BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh" --target ccm_agent ccm_server ccm_eval_cli
+"$ROOT/deploy/install-deps.sh" --demo
+# Tests off: the demo needs neither GoogleTest nor the test binaries (run-tests.sh turns them on).
+CMAKE_ARGS="-DCCM_BUILD_TESTS=OFF" BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh" --target ccm_agent ccm_server ccm_eval_cli
 BIN="$BUILD_DIR"
 QOS="$ROOT/qos_profiles/wifi.xml"
 DROP="${DEMO_DROP:-0.1}"

@@ -6,7 +6,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build}"
 "$ROOT/deploy/install-deps.sh"
 start=$(date +%s)
-BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh"
+CMAKE_ARGS="-DCCM_BUILD_TESTS=ON" BUILD_DIR="$BUILD_DIR" "$ROOT/deploy/build.sh"
 echo "[tests] build took $(( $(date +%s) - start )) s"
 cd "$BUILD_DIR"
 # Fast DDS prints its own warnings (e.g. discovery on lossy links) to stderr; keep them.
