@@ -24,6 +24,7 @@
 #include "server_runtime/server_outputs.h"
 #include "server_runtime/server_status.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
+#include "slam_core/server/stack_file.h"
 
 #ifndef CCM_DEFAULT_VOCABULARY
 #define CCM_DEFAULT_VOCABULARY ""
@@ -167,7 +168,8 @@ bool Resolve(ServerArgs* a, std::string* error) {
   if (!c.map_file.empty()) {
     if (c.save_map.empty()) c.save_map = c.map_file;
     if (c.load_map.empty()) {
-      if (std::filesystem::exists(c.map_file)) {
+      // The previous generation alone is left when the newest could never be completed.
+      if (std::filesystem::exists(c.map_file) || std::filesystem::exists(PreviousGeneration(c.map_file))) {
         c.load_map = c.map_file;
       } else {
         spdlog::info("no saved map stack at {}: starting with an empty one", c.map_file);
@@ -193,8 +195,10 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
   options.max_agents = config.max_agents;
   options.neighbourhood_k = config.neighbourhood_k;
   if (config.load_map.empty()) return std::make_unique<ServerBackend>(vocabulary, options);
-  auto backend = ServerBackend::Load(config.load_map, vocabulary, options, error);
+  std::string warning;
+  auto backend = ServerBackend::Load(config.load_map, vocabulary, options, error, &warning);
   if (!backend) return nullptr;
+  if (!warning.empty()) spdlog::warn("{}", warning);
   size_t kfs = 0;
   for (const auto& m : backend->Maps()) kfs += m.keyframes;
   spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, backend->Maps().size(), kfs,

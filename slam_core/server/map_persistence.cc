@@ -1,9 +1,8 @@
 #include "slam_core/server/map_persistence.h"
 
-#include <cstdio>
-#include <cstring>
-#include <fstream>
+#include <filesystem>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <cereal/archives/portable_binary.hpp>
@@ -12,7 +11,7 @@
 #include <cereal/types/utility.hpp>
 #include <cereal/types/vector.hpp>
 
-#include "slam_core/common/checksum.h"
+#include "slam_core/server/stack_file.h"
 
 namespace ccm {
 namespace {
@@ -262,93 +261,57 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
 
 }  // namespace
 
-bool MapPersistence::Save(const ServerBackend& backend, const std::string& path, std::string* error) {
+bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>& events, const std::string& path,
+                          std::string* error, int* handlers_left_out) {
   StackRecord rec;
   std::map<CameraRecord, uint32_t> cameras;
-  for (const auto& m : backend.stack().Maps()) {
+  std::set<uint64_t> saved_maps;
+  for (const auto& m : stack.Maps()) {
     std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
-    if (!m->retired()) rec.maps.push_back(ToRecord(*m, &cameras));
+    if (m->retired()) continue;
+    rec.maps.push_back(ToRecord(*m, &cameras));
+    saved_maps.insert(m->id().packed());
   }
   rec.cameras.resize(cameras.size());
   for (const auto& [c, i] : cameras) rec.cameras[i] = c;
-  rec.next_map = backend.stack().next_map_counter();
-  for (const AgentHandler& h : backend.stack().Handlers()) {
+  rec.next_map = stack.next_map_counter();
+  int left_out = 0;
+  for (const AgentHandler& h : stack.Handlers()) {
+    if (!saved_maps.count(h.map.packed())) {
+      ++left_out;
+      continue;
+    }
     const Sim3& S = h.map_from_segment;
     rec.handlers.push_back({h.agent, h.segment.packed(), h.map.packed(), h.last_keyframe.packed(), S.scale(),
                             {S.rotation().x(), S.rotation().y(), S.rotation().z(), S.rotation().w(), S.translation().x(),
                              S.translation().y(), S.translation().z()},
                             h.scale, h.keyframes});
   }
-  for (const ServerEvent& e : backend.events()) {
+  if (handlers_left_out) *handlers_left_out = left_out;
+  for (const ServerEvent& e : events) {
     rec.events.push_back({static_cast<int>(e.kind), e.time_s, e.seconds, e.stamp_ns, e.agent, e.map.packed(),
                           e.other_map.packed(), e.query.packed(), e.candidate.packed(), e.keyframes, e.detail});
   }
-  std::ostringstream payload_stream;
+  std::ostringstream payload;
   {
-    cereal::PortableBinaryOutputArchive archive(payload_stream);
+    cereal::PortableBinaryOutputArchive archive(payload);
     archive(rec);
   }
-  const std::string payload = payload_stream.str();
-  const uint64_t size = payload.size();
-  const uint64_t checksum = Fnv1a64(reinterpret_cast<const uint8_t*>(payload.data()), payload.size());
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(kMapStackMagic, sizeof(kMapStackMagic));
-    out.write(reinterpret_cast<const char*>(&kMapStackVersion), sizeof(kMapStackVersion));
-    out.write(reinterpret_cast<const char*>(&size), sizeof(size));
-    out.write(payload.data(), static_cast<std::streamsize>(payload.size()));
-    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
-    if (!out) {
-      *error = "cannot write " + tmp;
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    *error = "cannot rename " + tmp + " to " + path;
-    return false;
-  }
-  return true;
+  return WriteStackFile(path, payload.str(), error);
 }
 
-std::unique_ptr<ServerBackend> MapPersistence::Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
-                                                    ServerOptions options, std::string* error) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    *error = path + ": cannot open";
-    return nullptr;
-  }
-  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  constexpr size_t kHeader = sizeof(kMapStackMagic) + sizeof(uint32_t) + sizeof(uint64_t);
-  if (data.size() < kHeader + sizeof(uint64_t) || std::memcmp(data.data(), kMapStackMagic, sizeof(kMapStackMagic)) != 0) {
-    *error = path + ": not a ccm map stack file";
-    return nullptr;
-  }
-  uint32_t version = 0;
-  uint64_t size = 0, checksum = 0;
-  std::memcpy(&version, data.data() + 8, 4);
-  std::memcpy(&size, data.data() + 12, 8);
-  if (version != kMapStackVersion) {
-    *error = path + ": format version " + std::to_string(version) + ", this build reads " + std::to_string(kMapStackVersion);
-    return nullptr;
-  }
-  if (data.size() != kHeader + size + sizeof(uint64_t)) {
-    *error = path + ": size mismatch (truncated or padded file)";
-    return nullptr;
-  }
-  std::memcpy(&checksum, data.data() + kHeader + size, 8);
-  if (Fnv1a64(reinterpret_cast<const uint8_t*>(data.data() + kHeader), size) != checksum) {
-    *error = path + ": checksum mismatch: file corrupted";
-    return nullptr;
-  }
+namespace {
+
+std::optional<MapStackContents> Decode(const std::string& path, const std::string& bytes, const MapOptions& map_options,
+                                       std::string* error) {
   StackRecord rec;
   try {
-    std::istringstream payload(data.substr(kHeader, size));
+    std::istringstream payload(bytes);
     cereal::PortableBinaryInputArchive archive(payload);
     archive(rec);
   } catch (const std::exception& e) {
     *error = path + ": cannot decode: " + e.what();
-    return nullptr;
+    return std::nullopt;
   }
   std::vector<std::shared_ptr<const CameraModel>> cameras;
   for (const CameraRecord& c : rec.cameras) {
@@ -361,18 +324,20 @@ std::unique_ptr<ServerBackend> MapPersistence::Load(const std::string& path, std
     std::shared_ptr<const CameraModel> cam(MakeCamera(in));
     if (!cam) {
       *error = path + ": invalid camera: " + ValidateIntrinsics(in);
-      return nullptr;
+      return std::nullopt;
     }
     cameras.push_back(cam);
   }
-  auto backend = std::make_unique<ServerBackend>(std::move(vocabulary), std::move(options));
+  MapStackContents out;
+  std::set<uint64_t> maps;
   for (const MapRecord& m : rec.maps) {
-    auto smap = FromRecord(m, backend->options().map, cameras, error);
+    auto smap = FromRecord(m, map_options, cameras, error);
     if (!smap) {
       *error = path + ": " + *error;
-      return nullptr;
+      return std::nullopt;
     }
-    backend->stack_.RestoreMap(std::move(smap));
+    maps.insert(smap->id().packed());
+    out.maps.push_back(std::move(smap));
   }
   for (const HandlerRecord& h : rec.handlers) {
     AgentHandler a;
@@ -384,13 +349,13 @@ std::unique_ptr<ServerBackend> MapPersistence::Load(const std::string& path, std
                               Eigen::Vector3d(h.sim[4], h.sim[5], h.sim[6]));
     a.scale = h.scale;
     a.keyframes = h.keyframes;
-    if (!backend->stack_.GetMap(a.map)) {
+    if (!maps.count(a.map.packed())) {
       *error = path + ": handler of agent " + std::to_string(h.agent) + " points to a missing map";
-      return nullptr;
+      return std::nullopt;
     }
-    backend->stack_.RestoreHandler(a);
+    out.handlers.push_back(a);
   }
-  backend->stack_.set_next_map_counter(rec.next_map);
+  out.next_map_counter = rec.next_map;
   for (const EventRecord& e : rec.events) {
     ServerEvent ev;
     ev.kind = static_cast<ServerEvent::Kind>(e.kind);
@@ -404,19 +369,34 @@ std::unique_ptr<ServerBackend> MapPersistence::Load(const std::string& path, std
     ev.candidate = KeyframeId(e.candidate);
     ev.keyframes = e.keyframes;
     ev.detail = e.detail;
-    backend->events_.push_back(ev);
+    out.events.push_back(ev);
   }
-  backend->OnRestored();
-  return backend;
+  return out;
 }
 
-bool ServerBackend::Save(const std::string& path, std::string* error) const {
-  return MapPersistence::Save(*this, path, error);
+std::optional<MapStackContents> LoadOne(const std::string& path, const MapOptions& map_options, std::string* error) {
+  const auto bytes = ReadStackFile(path, error);
+  if (!bytes) return std::nullopt;
+  return Decode(path, *bytes, map_options, error);
 }
 
-std::unique_ptr<ServerBackend> ServerBackend::Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
-                                                   ServerOptions options, std::string* error) {
-  return MapPersistence::Load(path, std::move(vocabulary), std::move(options), error);
+}  // namespace
+
+std::optional<MapStackContents> MapPersistence::Load(const std::string& path, const MapOptions& map_options,
+                                                     std::string* error, std::string* warning) {
+  auto newest = LoadOne(path, map_options, error);
+  if (newest) return newest;
+  const std::string prev = PreviousGeneration(path);
+  std::error_code ec;
+  if (!std::filesystem::exists(prev, ec)) return std::nullopt;
+  std::string prev_error;
+  auto previous = LoadOne(prev, map_options, &prev_error);
+  if (!previous) {
+    *error += "; the previous generation too: " + prev_error;
+    return std::nullopt;
+  }
+  if (warning) *warning = *error + "; loaded the previous generation " + prev + " instead";
+  return previous;
 }
 
 }  // namespace ccm

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "slam_core/server/map_persistence.h"
 #include "slam_core/server/outgoing.h"
 
 namespace ccm {
@@ -549,7 +550,27 @@ std::vector<MapSummary> ServerBackend::Maps() const {
   return out;
 }
 
-void ServerBackend::OnRestored() {
+bool ServerBackend::Save(const std::string& path, std::string* error) const {
+  return MapPersistence::Save(stack_, events(), path, error);
+}
+
+std::unique_ptr<ServerBackend> ServerBackend::Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
+                                                   ServerOptions options, std::string* error, std::string* warning) {
+  auto contents = MapPersistence::Load(path, options.map, error, warning);
+  if (!contents) return nullptr;
+  auto backend = std::make_unique<ServerBackend>(std::move(vocabulary), std::move(options));
+  backend->Restore(std::move(*contents));
+  return backend;
+}
+
+void ServerBackend::Restore(MapStackContents contents) {
+  for (auto& m : contents.maps) stack_.RestoreMap(std::move(m));
+  for (const AgentHandler& h : contents.handlers) stack_.RestoreHandler(h);
+  stack_.set_next_map_counter(contents.next_map_counter);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    events_ = std::move(contents.events);
+  }
   for (const auto& m : stack_.Maps()) {
     std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
     for (const auto& kf : m->map().keyframes()) matcher_.AddToDatabase(*kf, m->id());

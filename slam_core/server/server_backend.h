@@ -39,6 +39,8 @@
 
 namespace ccm {
 
+struct MapStackContents;
+
 /// Something a user wants to see in a log or a summary.
 struct ServerEvent {
   enum class Kind { kNewMap, kFusion, kLoop, kGlobalBa };
@@ -163,10 +165,13 @@ class ServerBackend {
   const ServerOptions& options() const { return options_; }
   const Vocabulary& vocabulary() const { return *vocabulary_; }
 
-  /// Persistence (map_persistence.h): the whole stack, handlers and the database.
+  /// Persistence (map_persistence.h): maps, handlers and events; the database is rebuilt at
+  /// load. Load falls back to the previous generation (path.prev) when `path` is unreadable
+  /// or corrupt, and then says so in *warning.
   bool Save(const std::string& path, std::string* error) const;
   static std::unique_ptr<ServerBackend> Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
-                                             ServerOptions options, std::string* error);
+                                             ServerOptions options, std::string* error,
+                                             std::string* warning = nullptr);
 
  private:
   struct AgentQueue {
@@ -181,9 +186,8 @@ class ServerBackend {
   bool RunOptimization(std::chrono::milliseconds timeout, bool respect_pause);
   void AddEvent(ServerEvent e);
   double Elapsed() const;
-  void OnRestored();  // after Load: database and queues from the restored stack
-
-  friend class MapPersistence;
+  /// After Load: the stack, handlers and events from the file, the database from its keyframes.
+  void Restore(MapStackContents contents);
 
   std::shared_ptr<const Vocabulary> vocabulary_;
   const ServerOptions options_;

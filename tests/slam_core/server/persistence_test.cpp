@@ -124,5 +124,61 @@ TEST(Persistence, CorruptedTruncatedAndForeignFilesAreRefused) {
   EXPECT_NE(error.find("cannot open"), std::string::npos) << error;
 }
 
+TEST(Persistence, ACorruptNewestGenerationFallsBackToThePreviousOne) {
+  // A save keeps the file it replaces as path.prev; a newest file that no longer reads (a
+  // disk error, a crash of the storage underneath) costs one generation, not the map.
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  const testing::VoStream s = testing::RunVoStream(sim, 0, 0, 80);
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  const size_t half = s.batches.size() / 2;
+  for (size_t i = 0; i < half; ++i) backend.Submit(s.batches[i]);
+  backend.ProcessAllQueued();
+  const std::string path = TempPath("ccm_stack_generations.bin");
+  const std::string prev = path + ".prev";
+  std::remove(prev.c_str());
+  std::string error, warning;
+  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  EXPECT_FALSE(std::ifstream(prev).good());  // nothing to keep the first time
+  const size_t first_keyframes = backend.Maps().at(0).keyframes;
+  for (size_t i = half; i < s.batches.size(); ++i) backend.Submit(s.batches[i]);
+  backend.ProcessAllQueued();
+  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  const size_t second_keyframes = backend.Maps().at(0).keyframes;
+  ASSERT_GT(second_keyframes, first_keyframes);
+
+  auto newest = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning);
+  ASSERT_NE(newest, nullptr) << error;
+  EXPECT_TRUE(warning.empty()) << warning;
+  EXPECT_EQ(newest->Maps().at(0).keyframes, second_keyframes);
+
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  bytes[bytes.size() / 2] ^= 0x01;
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << bytes;
+  }
+  auto fallback = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning);
+  ASSERT_NE(fallback, nullptr) << error;
+  EXPECT_NE(warning.find("checksum"), std::string::npos) << warning;
+  EXPECT_NE(warning.find(".prev"), std::string::npos) << warning;
+  EXPECT_EQ(fallback->Maps().at(0).keyframes, first_keyframes);
+
+  // Both generations unreadable: a clear error naming both.
+  std::remove(prev.c_str());
+  {
+    std::ofstream out(prev, std::ios::binary);
+    out << "garbage";
+  }
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning), nullptr);
+  EXPECT_NE(error.find("previous generation too"), std::string::npos) << error;
+  std::remove(path.c_str());
+  std::remove(prev.c_str());
+}
+
 }  // namespace
 }  // namespace ccm
