@@ -71,6 +71,9 @@ int AgentIdOfPartition(const std::string& partition) {
       partition.compare(0, prefix.size(), prefix) != 0) {
     return -1;
   }
+  // One spelling per agent: "agent_01" would name agent 1 from a partition that its
+  // permissions (granted for "agent_1") do not cover.
+  if (partition[prefix.size()] == '0') return -1;
   int id = 0;
   for (size_t i = prefix.size(); i < partition.size(); ++i) {
     if (partition[i] < '0' || partition[i] > '9') return -1;

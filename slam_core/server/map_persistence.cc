@@ -1,5 +1,6 @@
 #include "slam_core/server/map_persistence.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -221,6 +222,11 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
       *error = "keyframe " + std::to_string(k.id) + " is inconsistent";
       return nullptr;
     }
+    // Out-of-range levels would index the scale pyramid out of bounds.
+    if (std::any_of(k.kp_level.begin(), k.kp_level.end(), [&](int8_t l) { return l < 0 || l >= k.levels; })) {
+      *error = "keyframe " + std::to_string(k.id) + " has a keypoint level outside its pyramid";
+      return nullptr;
+    }
     auto features = std::make_shared<FrameFeatures>();
     for (size_t i = 0; i < n; ++i) {
       features->keypoints.push_back({k.kp[4 * i], k.kp[4 * i + 1], k.kp[4 * i + 2], k.kp[4 * i + 3], k.kp_level[i]});
@@ -248,14 +254,24 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
     auto mp = std::make_shared<MapPoint>(MapPointId(p.id), Eigen::Vector3d(p.position[0], p.position[1], p.position[2]),
                                          KeyframeId(p.reference), p.descriptor);
     mp->SetAppearance(p.descriptor, Eigen::Vector3d(p.normal[0], p.normal[1], p.normal[2]), p.min_distance, p.max_distance);
-    for (const auto& [kf, idx] : p.observations) mp->AddObservation(KeyframeId(kf), idx);
+    for (const auto& [kf_id, idx] : p.observations) {
+      // Optimization and matching index the observing keyframe's keypoints with it; an
+      // observation by a keyframe that is not in the map is dropped.
+      const auto kf = map.keyframe(KeyframeId(kf_id));
+      if (!kf) continue;
+      if (idx < 0 || static_cast<size_t>(idx) >= kf->num_keypoints()) {
+        *error = "map point " + std::to_string(p.id) + " has an observation outside its keyframe's keypoints";
+        return nullptr;
+      }
+      mp->AddObservation(KeyframeId(kf_id), idx);
+    }
     map.AddMapPoint(mp);
   }
   for (const AnchorRecord& a : r.anchors) {
     smap->AddAnchor(KeyframeId(a.id), {KeyframeId(a.base), FromRecord(a.base_from_cam), a.stamp_ns, MapId(a.segment)});
   }
   for (const auto& [from, to] : r.replaced) smap->RecordReplacement(MapPointId(from), MapPointId(to));
-  for (uint64_t g = 0; g < r.generation; ++g) smap->BumpGeneration();
+  smap->RestoreGeneration(r.generation);
   return smap;
 }
 

@@ -69,6 +69,9 @@ class ServerMap {
   /// whose snapshot is of an older generation must not write back.
   uint64_t generation() const { return generation_.load(); }
   void BumpGeneration() { ++generation_; }
+  /// Loading a saved map: continue its counter (a snapshot taken before the save never
+  /// writes back into the loaded map).
+  void RestoreGeneration(uint64_t generation) { generation_ = generation; }
 
   /// Set (under the exclusive lock) when this map was fused into another; handlers that
   /// still hold it re-resolve their map.

@@ -180,6 +180,8 @@ TEST(SecureWire, AgentIdOfPartition) {
   EXPECT_EQ(rt::AgentIdOfPartition("agent_1"), 1);
   EXPECT_EQ(rt::AgentIdOfPartition(rt::AgentPartition(65535)), 65535);
   EXPECT_EQ(rt::AgentIdOfPartition("agent_0"), -1);
+  EXPECT_EQ(rt::AgentIdOfPartition("agent_01"), -1);  // one spelling per agent
+  EXPECT_EQ(rt::AgentIdOfPartition("agent_10"), 10);
   EXPECT_EQ(rt::AgentIdOfPartition("agent_65536"), -1);
   EXPECT_EQ(rt::AgentIdOfPartition("agent_*"), -1);
   EXPECT_EQ(rt::AgentIdOfPartition("agent_1x"), -1);

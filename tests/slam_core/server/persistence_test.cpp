@@ -180,5 +180,34 @@ TEST(Persistence, ACorruptNewestGenerationFallsBackToThePreviousOne) {
   std::remove(prev.c_str());
 }
 
+TEST(Persistence, AFileWhoseObservationsPointOutsideTheKeypointsIsRefused) {
+  // The checksum protects against accidents, not against a crafted file (FNV is no MAC):
+  // the loader itself must refuse indices that optimization would follow out of bounds.
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  const testing::VoStream s = testing::RunVoStream(sim, 0, 0, 60);
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  for (const AgentBatch& b : s.batches) backend.Submit(b);
+  backend.ProcessAllQueued();
+  const std::string path = TempPath("ccm_stack_crafted.bin");
+  std::string error;
+  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  ASSERT_NE(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr) << error;
+
+  const auto smap = backend.stack().Maps().at(0);
+  const auto mp = smap->map().map_points().front();
+  std::shared_ptr<KeyFrame> kf;
+  for (const auto& k : smap->map().keyframes()) {
+    if (!mp->KeypointIn(k->id())) kf = k;  // one that does not observe it yet
+  }
+  ASSERT_NE(kf, nullptr);
+  ASSERT_TRUE(mp->AddObservation(kf->id(), static_cast<int>(kf->num_keypoints()) + 7));  // bypasses the Map
+  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  std::remove((path + ".prev").c_str());  // no fallback: the crafted file alone
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_NE(error.find("outside its keyframe's keypoints"), std::string::npos) << error;
+  std::remove(path.c_str());
+}
+
 }  // namespace
 }  // namespace ccm
