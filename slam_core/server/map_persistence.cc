@@ -8,9 +8,7 @@
 
 #include <cereal/archives/portable_binary.hpp>
 #include <cereal/types/array.hpp>
-#include <cereal/types/string.hpp>
 #include <cereal/types/utility.hpp>
-#include <cereal/types/vector.hpp>
 
 #include "slam_core/server/stack_file.h"
 
@@ -18,6 +16,35 @@ namespace ccm {
 namespace {
 
 using Pose7 = std::array<double, 7>;  // qx qy qz qw tx ty tz
+
+// A vector or string as cereal writes it (size, then the elements: the same bytes), read so
+// that memory grows only with the elements the file really holds: a crafted size field
+// cannot make the loader allocate (cereal would resize to it first). Every vector and
+// string of the records below goes through it.
+template <class C>
+struct Bounded {
+  C& c;
+  template <class A>
+  void save(A& a) const {
+    a(cereal::make_size_tag(static_cast<cereal::size_type>(c.size())));
+    for (const auto& x : c) a(x);
+  }
+  template <class A>
+  void load(A& a) {
+    cereal::size_type n = 0;
+    a(cereal::make_size_tag(n));
+    c.clear();
+    for (cereal::size_type i = 0; i < n; ++i) {  // a short payload throws at its end
+      typename C::value_type x{};
+      a(x);
+      c.push_back(std::move(x));
+    }
+  }
+};
+template <class C>
+Bounded<C> B(C& c) {
+  return {c};
+}
 
 Pose7 ToRecord(const SE3& T) {
   const auto& q = T.rotation();
@@ -34,7 +61,7 @@ struct CameraRecord {
   std::vector<double> distortion;
   template <class A>
   void serialize(A& a) {
-    a(type, width, height, fx, fy, cx, cy, distortion);
+    a(type, width, height, fx, fy, cx, cy, B(distortion));
   }
   bool operator<(const CameraRecord& o) const {
     return std::tie(type, width, height, fx, fy, cx, cy, distortion) <
@@ -70,8 +97,8 @@ struct KeyframeRecord {
   InfoRecord info;
   template <class A>
   void serialize(A& a) {
-    a(id, stamp_ns, camera, levels, scale_factor, kp, kp_level, descriptors, map_points, pose, parent, children,
-      loop_edges, covisibility, has_info, info);
+    a(id, stamp_ns, camera, levels, scale_factor, B(kp), B(kp_level), B(descriptors), B(map_points), pose, parent,
+      B(children), B(loop_edges), B(covisibility), has_info, info);
   }
 };
 
@@ -83,7 +110,7 @@ struct PointRecord {
   std::vector<std::pair<uint64_t, int>> observations;
   template <class A>
   void serialize(A& a) {
-    a(id, reference, position, normal, descriptor, min_distance, max_distance, observations);
+    a(id, reference, position, normal, descriptor, min_distance, max_distance, B(observations));
   }
 };
 
@@ -105,7 +132,7 @@ struct MapRecord {
   std::vector<std::pair<uint64_t, uint64_t>> replaced;
   template <class A>
   void serialize(A& a) {
-    a(id, generation, keyframes, points, anchors, replaced);
+    a(id, generation, B(keyframes), B(points), B(anchors), B(replaced));
   }
 };
 
@@ -132,7 +159,7 @@ struct EventRecord {
   std::string detail;
   template <class A>
   void serialize(A& a) {
-    a(kind, time_s, seconds, stamp_ns, agent, map, other_map, query, candidate, keyframes, detail);
+    a(kind, time_s, seconds, stamp_ns, agent, map, other_map, query, candidate, keyframes, B(detail));
   }
 };
 
@@ -144,7 +171,7 @@ struct StackRecord {
   std::vector<EventRecord> events;
   template <class A>
   void serialize(A& a) {
-    a(next_map, cameras, maps, handlers, events);
+    a(next_map, B(cameras), B(maps), B(handlers), B(events));
   }
 };
 

@@ -3,10 +3,14 @@
 // refused with a clear message, and registration continues on the loaded stack.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
+#include "slam_core/common/checksum.h"
+#include "slam_core/server/stack_file.h"
 #include "tests/slam_core/server/server_test_util.h"
 
 namespace ccm {
@@ -206,6 +210,39 @@ TEST(Persistence, AFileWhoseObservationsPointOutsideTheKeypointsIsRefused) {
   std::remove((path + ".prev").c_str());  // no fallback: the crafted file alone
   EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   EXPECT_NE(error.find("outside its keyframe's keypoints"), std::string::npos) << error;
+  std::remove(path.c_str());
+}
+
+TEST(Persistence, ASizeFieldClaimingMillionsOfElementsAllocatesNothing) {
+  // A crafted payload (checksum recomputed) whose first vector, the cameras, claims 2^24
+  // elements and then ends. cereal would resize to the claim first (~1.3 GB of records); the
+  // loader must fail on the missing bytes without allocating for elements that are not there.
+  std::string payload;
+  auto put = [&](uint64_t v, size_t bytes) { payload.append(reinterpret_cast<const char*>(&v), bytes); };
+  put(1, 1);          // portable binary: little-endian data
+  put(1, 8);          // next_map
+  put(1ull << 24, 8);  // cameras: size tag
+  put(1, 4);          // half of a first camera, then nothing
+  const uint32_t version = kMapStackVersion;
+  const uint64_t size = payload.size();
+  const uint64_t checksum = Fnv1a64(reinterpret_cast<const uint8_t*>(payload.data()), payload.size());
+  const std::string path = TempPath("ccm_stack_huge_claim.bin");
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(kMapStackMagic, sizeof(kMapStackMagic));
+    out.write(reinterpret_cast<const char*>(&version), sizeof(version));
+    out.write(reinterpret_cast<const char*>(&size), sizeof(size));
+    out << payload;
+    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
+  }
+  rusage before{}, after{};
+  getrusage(RUSAGE_SELF, &before);
+  std::string error;
+  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_NE(error.find("cannot decode"), std::string::npos) << error;
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 200 * 1024) << "peak RSS grew by " << after.ru_maxrss - before.ru_maxrss
+                                                            << " kB";
   std::remove(path.c_str());
 }
 
