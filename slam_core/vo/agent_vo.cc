@@ -139,16 +139,27 @@ void AgentVo::ProcessJob(const MappingJob& job) {
       mapper_.ApplyServerData(job.map.get(), *job.server);
       SyncRelocalizationIndex();
     }
+    PublishMapperStats();
     return;
   }
   {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
     mapper_.Process(*job.keyframe);
+    PublishMapperStats();
   }
   SyncRelocalizationIndex();
   const double ms = MsSince(t0);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   AddSample(&stats_.mapping_ms, mapping_samples_++, ms);
+}
+
+void AgentVo::PublishMapperStats() {
+  // Copied after each job so that stats() (the comm thread's heartbeat, progress lines)
+  // never waits behind a local BA on mapper_mutex_. Lock order mapper_mutex_ -> stats_mutex_.
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.mapping = mapper_.stats();
+  stats_.trim = mapper_.trim_stats();
+  stats_.server = mapper_.server_stats();
 }
 
 void AgentVo::SyncRelocalizationIndex() {
@@ -178,13 +189,7 @@ AgentVoStats AgentVo::stats() const {
   AgentVoStats s;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    s = stats_;
-  }
-  {
-    std::lock_guard<std::mutex> lock(mapper_mutex_);
-    s.mapping = mapper_.stats();
-    s.trim = mapper_.trim_stats();
-    s.server = mapper_.server_stats();
+    s = stats_;  // the mapper's part as of its last job (PublishMapperStats)
   }
   if (shared_.relocalization) s.relocalization_index_size = shared_.relocalization->size();
   if (const auto m = CurrentMap()) {

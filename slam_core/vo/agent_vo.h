@@ -7,7 +7,8 @@
 //     by the runtime loops on RunMappingOnce(); Stop() wakes it for shutdown.
 // Lock order: jobs_mutex_ is never held while the map or a keyframe is locked;
 // lock order mapper_mutex_ -> map_mutex_ (ProcessJob checks the segment while applying server
-// data); stats_mutex_ is a leaf.
+// data); stats_mutex_ is a leaf (taken under mapper_mutex_ when the mapper's stats are
+// published; stats() takes it alone, so it never waits behind a local BA).
 #pragma once
 
 #include <chrono>
@@ -115,6 +116,7 @@ class AgentVo {
   };
   void Enqueue(MappingJob job);
   void ProcessJob(const MappingJob& job);
+  void PublishMapperStats();  // mapping thread, holding mapper_mutex_
   /// Mapping thread: the relocalization index follows the current segment's keyframes.
   void SyncRelocalizationIndex();
 
