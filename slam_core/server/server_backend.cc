@@ -38,6 +38,16 @@ SharedMapLock LockMapOf(const MapStack& stack, KeyframeId kf) {
   return {};
 }
 
+// Every segment id a batch names (each becomes a server map when registered).
+std::set<uint64_t> SegmentsOf(const AgentBatch& b) {
+  std::set<uint64_t> out;
+  if (b.segment.valid()) out.insert(b.segment.packed());
+  for (const KeyframeData& k : b.keyframes) out.insert(k.segment.packed());
+  for (const MapPointData& m : b.map_points) out.insert(m.segment.packed());
+  for (const KeyframePoseUpdate& u : b.keyframe_updates) out.insert(u.segment.packed());
+  return out;
+}
+
 }  // namespace
 
 const char* ServerEventKindName(ServerEvent::Kind kind) {
@@ -82,7 +92,7 @@ int ServerBackend::Submit(AgentBatch batch) {
   std::function<void(AgentId)> callback;
   // queue_mutex_ and stats_mutex_ are both leaves: a refusal is decided under the first and
   // counted under the second, never both held.
-  enum class Refused { kNo, kAgent, kQueueFull } refused = Refused::kNo;
+  enum class Refused { kNo, kAgent, kQueueFull, kSegments } refused = Refused::kNo;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     is_new = !queues_.count(agent);
@@ -91,9 +101,17 @@ int ServerBackend::Submit(AgentBatch batch) {
     } else {
       AgentQueue& q = queues_[agent];
       if (is_new) q.registration = std::make_unique<AgentRegistration>(agent, &stack_, options_.registration);
+      // Registration opens a map for the segment of every item, not only the batch's.
+      std::set<uint64_t> fresh;
+      for (const uint64_t s : SegmentsOf(batch)) {
+        if (!q.segments.count(s)) fresh.insert(s);
+      }
       if (static_cast<int>(q.batches.size()) >= options_.max_queued_batches_per_agent) {
         refused = Refused::kQueueFull;
+      } else if (static_cast<int>(q.segments.size() + fresh.size()) > options_.max_segments_per_agent) {
+        refused = Refused::kSegments;
       } else {
+        q.segments.insert(fresh.begin(), fresh.end());
         if (!batch.empty()) q.batches.push_back(std::move(batch));
         callback = is_new ? on_new_agent_ : nullptr;
       }
@@ -103,6 +121,11 @@ int ServerBackend::Submit(AgentBatch batch) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     if (refused == Refused::kAgent) {
       ++stats_.batches_rejected;
+    } else if (refused == Refused::kSegments) {
+      AgentCounters& c = stats_.agents[agent];
+      ++c.segments_refused;
+      c.last_rejection = "more than max_segments_per_agent (" + std::to_string(options_.max_segments_per_agent) +
+                         ") map segments";
     } else {
       ++stats_.agents[agent].batches_dropped;
     }

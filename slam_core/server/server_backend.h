@@ -69,6 +69,7 @@ struct AgentCounters {
   int64_t updates_ignored = 0;
   int64_t rejected = 0;              ///< items that failed validation
   int64_t batches_dropped = 0;       ///< queue full (max_queued_batches_per_agent)
+  int64_t segments_refused = 0;      ///< batches of a segment beyond max_segments_per_agent
   std::string last_rejection;
   std::vector<double> keyframe_ms;   ///< registration + mapping per keyframe (first 20000)
   double registration_ms = 0.0, fusion_ms = 0.0, local_ba_ms = 0.0;  ///< totals per stage
@@ -176,6 +177,7 @@ class ServerBackend {
  private:
   struct AgentQueue {
     std::deque<AgentBatch> batches;
+    std::set<uint64_t> segments;  ///< segment ids submitted (max_segments_per_agent)
     bool busy = false;
     std::unique_ptr<AgentRegistration> registration;
   };

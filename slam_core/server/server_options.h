@@ -118,6 +118,11 @@ struct ServerOptions {
   /// keyframes the server never acknowledges; updates are superseded anyway), so one slow
   /// or flooding agent cannot grow the server's memory.
   int max_queued_batches_per_agent = 256;
+  /// Map segments one agent may open in this server's life (each new segment id on the wire
+  /// is a new server map until it fuses). An agent opens one per start and per tracking loss
+  /// for good; a batch for one more is refused and counted (segments_refused), so a faulty or
+  /// hostile agent cannot make the server create maps without end.
+  int max_segments_per_agent = 64;
   int neighbourhood_k = 5;  ///< keyframes sent back to an agent (CCM-SLAM default 5)
   std::string Validate() const;
 };

@@ -368,6 +368,41 @@ TEST(Submit, AFullAgentQueueDropsAndCountsInsteadOfGrowing) {
   EXPECT_GT(backend.AgentTrajectory(1).size(), 0u) << "what was queued is processed";
 }
 
+TEST(Submit, AnAgentCannotOpenMapSegmentsWithoutEnd) {
+  // A batch whose points name one new segment each (a faulty or hostile agent) would make
+  // one server map per segment; the budget refuses the batch that goes beyond it, whole.
+  const testing::VoStream& s = Hall3Stream();
+  ServerOptions o;
+  o.max_segments_per_agent = 4;
+  ServerBackend backend(SimVocabulary(), o);
+  ASSERT_GE(s.batches.front().map_points.size(), 8u);
+  AgentBatch flood;
+  flood.agent = 1;
+  flood.segment = MapId::Make(1, 900);
+  for (size_t i = 0; i < 8; ++i) {
+    MapPointData p = s.batches.front().map_points[i];
+    p.segment = MapId::Make(1, 1000 + i);
+    flood.map_points.push_back(p);
+  }
+  EXPECT_EQ(backend.Submit(flood), -1);
+  EXPECT_EQ(backend.stats().agents.at(1).segments_refused, 1);
+  EXPECT_NE(backend.stats().agents.at(1).last_rejection.find("max_segments_per_agent"), std::string::npos);
+  // Within the budget: the agent's real stream (one segment) goes through, and so does a
+  // batch naming three more; a fifth segment does not.
+  for (const AgentBatch& b : s.batches) EXPECT_GE(backend.Submit(b), 0);
+  flood.map_points.resize(3);
+  flood.segment = flood.map_points.front().segment;
+  EXPECT_EQ(backend.Submit(flood), 0);
+  AgentBatch fifth;
+  fifth.agent = 1;
+  fifth.segment = MapId::Make(1, 2000);
+  EXPECT_EQ(backend.Submit(fifth), -1);
+  EXPECT_EQ(backend.stats().agents.at(1).segments_refused, 2);
+  backend.ProcessAllQueued();
+  EXPECT_LE(backend.Maps().size(), 4u);
+  EXPECT_GT(backend.AgentTrajectory(1).size(), 10u);
+}
+
 TEST(ServerMap, AnchorOffsetsFollowAScaleCorrectionOfTheirRoot) {
   // Keyframe k1 (in the map) carries anchor a, which carries anchor b; k2 carries c. A Sim(3)
   // correction that scaled the map around k1 by 1.5 must stretch a's and b's offsets; c's
