@@ -14,6 +14,7 @@
 
 #include "agent_runtime/agent_runner.h"
 #include "runtime_common/logging.h"
+#include "runtime_common/runtime_cli.h"
 
 namespace {
 using namespace ccm;
@@ -36,7 +37,8 @@ struct AgentArgs {
 
 // Options given on the command line win over the config file's keys.
 struct GivenOnCommandLine {
-  CLI::Option *id, *domain, *qos, *security, *log, *participant, *vocab, *no_sharing;
+  rt::DdsOptionsGiven dds;
+  CLI::Option *id, *vocab, *no_sharing;
 };
 
 GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
@@ -46,13 +48,7 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   app->add_option("-c,--config", a->config_path, "YAML config file (keys: see docs/configuration.md)")
       ->check(CLI::ExistingFile);
   g.id = app->add_option("--agent-id", c.agent_id, "agent id, 1..65535 (overrides the config)");
-  g.domain = app->add_option("--domain", c.domain_id, "DDS domain id (overrides the config)");
-  g.qos = app->add_option("--qos", c.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
-  g.security = app->add_option("--security-dir", c.security_dir,
-                               "DDS-Security directory of this participant (docs/security.md; overrides the config)");
-  g.log = app->add_option("--log-level", c.log_level, "trace, debug, info, warn, error, off");
-  g.participant = app->add_option("--participant-profile", c.participant_profile,
-                                  "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
+  g.dds = rt::AddDdsOptions(app, &c, &a->session);
   app->add_flag("--standalone", a->standalone, "run the VO without DDS (no server)");
   app->add_option("--dataset", run.dataset, "dataset folder (EuRoC, TUM RGB-D or KITTI odometry)");
   app->add_option("--format", run.format, "dataset format: auto, euroc, tum, kitti")->capture_default_str();
@@ -71,8 +67,6 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   app->add_option("--drain", run.drain_s, "connected: wait this long for the last acknowledgements [s]")
       ->capture_default_str();
   g.no_sharing = app->add_flag("--no-map-sharing", "do not integrate the keyframes the server sends back");
-  app->add_option("--drop", a->session.fault.drop_probability, "fault injection: drop probability of received datagrams");
-  app->add_option("--delay-ms", a->session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
   return g;
 }
 
@@ -86,13 +80,9 @@ bool Resolve(const GivenOnCommandLine& g, AgentArgs* a, std::string* error) {
     if (!agent::LoadAgentConfig(a->config_path, &from_file, error)) return false;
     const agent::AgentConfig cli = config;
     config = from_file;
+    rt::KeepGivenDdsOptions(g.dds, cli, &config);
     if (*g.id) config.agent_id = cli.agent_id;
-    if (*g.domain) config.domain_id = cli.domain_id;
-    if (*g.qos) config.qos_file = cli.qos_file;
-    if (*g.security) config.security_dir = cli.security_dir;
-    if (*g.log) config.log_level = cli.log_level;
     if (*g.vocab) config.vocabulary = cli.vocabulary;
-    if (*g.participant) config.participant_profile = cli.participant_profile;
   }
   if (*g.no_sharing) config.map_sharing = false;
   // The robot's camera from its config file, unless the command line names another input.
@@ -116,15 +106,7 @@ bool Resolve(const GivenOnCommandLine& g, AgentArgs* a, std::string* error) {
 // Connected runs: the DDS session's options and ids of this process' life.
 bool PrepareConnected(AgentArgs* a, std::string* error) {
   rt::SessionOptions& session = a->session;
-  if (session.fault.drop_probability == 0.0 && session.fault.delay_ms == 0.0) {
-    auto env = rt::FaultOptions::FromEnvironment(error);
-    if (!env) return false;
-    session.fault = *env;
-  }
-  session.domain_id = a->config.domain_id;
-  session.qos_file = a->config.qos_file;
-  session.security_dir = a->config.security_dir;
-  session.participant_profile = a->config.participant_profile;
+  if (!rt::ResolveSession(a->config, &session, error)) return false;
   // A restarted agent with the same id must not reuse keyframe, point or segment ids the
   // server already holds (it would take new keyframes for resends). Seconds since 2024
   // (segments, 32 bits on the wire) and 100000 ids per second of clock (keyframes and
@@ -145,11 +127,7 @@ int main(int argc, char** argv) {
   CLI::App app{"ccm_agent: collaborative monocular SLAM agent (CCM-SLAM on Fast DDS)"};
   const GivenOnCommandLine given = AddOptions(&app, &args);
   CLI11_PARSE(app, argc, argv);
-  // Ceres reports rejected trust-region steps (a point behind a camera) as glog warnings:
-  // expected during optimization, noise for an operator. Keep its errors.
-  google::InitGoogleLogging(argv[0]);
-  FLAGS_minloglevel = google::GLOG_ERROR;
-  FLAGS_logtostderr = true;
+  rt::QuietCeresLogging(argv[0]);
   std::string error;
   if (!Resolve(given, &args, &error)) return Fail(error);
   std::signal(SIGINT, OnSignal);

@@ -18,6 +18,7 @@
 
 #include "slam_core/common/install_paths.h"
 #include "runtime_common/logging.h"
+#include "runtime_common/runtime_cli.h"
 #include "server_runtime/backend_runner.h"
 #include "server_runtime/map_view_server.h"
 #include "server_runtime/server_comm.h"
@@ -100,7 +101,8 @@ struct ServerArgs {
 
 // Options given on the command line win over the config file's keys.
 struct GivenOnCommandLine {
-  CLI::Option *domain, *qos, *security, *log, *participant, *vocab, *load, *save, *map_file, *autosave;
+  rt::DdsOptionsGiven dds;
+  CLI::Option *vocab, *load, *save, *map_file, *autosave;
 };
 
 GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
@@ -108,13 +110,7 @@ GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
   GivenOnCommandLine g{};
   app->add_option("-c,--config", a->config_path, "YAML config file (keys: see docs/configuration.md)")
       ->check(CLI::ExistingFile);
-  g.domain = app->add_option("--domain", c.domain_id, "DDS domain id (overrides the config)");
-  g.qos = app->add_option("--qos", c.qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
-  g.security = app->add_option("--security-dir", c.security_dir,
-                               "DDS-Security directory of this participant (docs/security.md; overrides the config)");
-  g.log = app->add_option("--log-level", c.log_level, "trace, debug, info, warn, error, off");
-  g.participant = app->add_option("--participant-profile", c.participant_profile,
-                                  "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
+  g.dds = rt::AddDdsOptions(app, &c, &a->session);
   g.vocab = app->add_option("--vocab", c.vocabulary, "bag-of-words vocabulary (default: the built-in one)");
   g.load = app->add_option("--load-map", c.load_map, "start from this saved map stack")->check(CLI::ExistingFile);
   g.save = app->add_option("--save-map", c.save_map, "save the map stack here on exit");
@@ -127,8 +123,6 @@ GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
   app->add_option("--idle-exit", a->idle_exit_s,
                   "stop once every agent has left and no data arrived for this long, after the first [s]");
   app->add_option("--progress", a->progress_s, "progress line period [s]")->capture_default_str();
-  app->add_option("--drop", a->session.fault.drop_probability, "fault injection: drop probability of received datagrams");
-  app->add_option("--delay-ms", a->session.fault.delay_ms, "fault injection: delay of received datagrams [ms]");
   server::AddMapViewOptions(app, &a->map_view);
   return g;
 }
@@ -141,11 +135,7 @@ bool MergeConfigFile(const GivenOnCommandLine& g, ServerArgs* a, std::string* er
   const server::ServerConfig cli = a->config;
   server::ServerConfig& c = a->config;
   c = from_file;
-  if (*g.domain) c.domain_id = cli.domain_id;
-  if (*g.qos) c.qos_file = cli.qos_file;
-  if (*g.security) c.security_dir = cli.security_dir;
-  if (*g.log) c.log_level = cli.log_level;
-  if (*g.participant) c.participant_profile = cli.participant_profile;
+  rt::KeepGivenDdsOptions(g.dds, cli, &c);
   if (*g.vocab) c.vocabulary = cli.vocabulary;
   if (*g.load) c.load_map = cli.load_map;
   if (*g.save) c.save_map = cli.save_map;
@@ -176,16 +166,7 @@ bool Resolve(ServerArgs* a, std::string* error) {
       }
     }
   }
-  if (a->session.fault.drop_probability == 0.0 && a->session.fault.delay_ms == 0.0) {
-    auto env = rt::FaultOptions::FromEnvironment(error);
-    if (!env) return false;
-    a->session.fault = *env;
-  }
-  a->session.domain_id = c.domain_id;
-  a->session.qos_file = c.qos_file;
-  a->session.security_dir = c.security_dir;
-  a->session.participant_profile = c.participant_profile;
-  return true;
+  return rt::ResolveSession(c, &a->session, error);
 }
 
 // The back-end, empty or loaded from the saved map stack.
@@ -329,9 +310,7 @@ int main(int argc, char** argv) {
   CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
   const GivenOnCommandLine given = AddOptions(&app, &args);
   CLI11_PARSE(app, argc, argv);
-  google::InitGoogleLogging(argv[0]);
-  FLAGS_minloglevel = google::GLOG_ERROR;  // Ceres' rejected-step warnings are noise here
-  FLAGS_logtostderr = true;
+  rt::QuietCeresLogging(argv[0]);
   std::string error;
   if (!MergeConfigFile(given, &args, &error) || !Resolve(&args, &error)) return Fail(error);
   auto vocabulary = LoadVocabularyFile(args.config.vocabulary, &error);
