@@ -24,9 +24,9 @@ constexpr int kDomain = 187;
 
 std::string Qos() { return std::string(CCM_QOS_DIR) + "/wifi.xml"; }
 
-nlohmann::json CtlStatus(const std::string& dir) {
+nlohmann::json CtlStatus(const std::string& dir, int domain = kDomain) {
   const auto r = testing::RunConcurrently(
-      {{CCM_CTL, "status", "--json", "--domain", std::to_string(kDomain), "--qos", Qos(), "--timeout", "4"}},
+      {{CCM_CTL, "status", "--json", "--domain", std::to_string(domain), "--qos", Qos(), "--timeout", "4"}},
       dir + "/ctl", std::chrono::seconds(20));
   if (r[0].exit_code != 0) return nlohmann::json();
   return nlohmann::json::parse(r[0].output.substr(r[0].output.find('{')), nullptr, false);
@@ -48,19 +48,19 @@ size_t MapKeyframes(const nlohmann::json& status) {
 
 /// Polls ccm_ctl status until `done` holds (returns that status) or the deadline passes.
 template <typename Pred>
-nlohmann::json WaitForStatus(const std::string& dir, std::chrono::seconds timeout, Pred done) {
+nlohmann::json WaitForStatus(const std::string& dir, std::chrono::seconds timeout, Pred done, int domain = kDomain) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   nlohmann::json last;
   while (std::chrono::steady_clock::now() < deadline) {
-    last = CtlStatus(dir);
+    last = CtlStatus(dir, domain);
     if (last.is_object() && done(last)) return last;
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
   }
   return last;
 }
 
-std::vector<std::string> ServerCommand(const std::string& map_file) {
-  return {CCM_SERVER, "--qos", Qos(), "--domain", std::to_string(kDomain), "--map-file", map_file,
+std::vector<std::string> ServerCommand(const std::string& map_file, int domain = kDomain) {
+  return {CCM_SERVER, "--qos", Qos(), "--domain", std::to_string(domain), "--map-file", map_file,
           "--autosave", "2", "--progress", "1000", "--log-level", "info"};
 }
 
@@ -146,6 +146,62 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
   std::cout << "first server: " << MapKeyframes(before) << " KFs in status before SIGTERM; restarted server: "
             << MapKeyframes(after) << " KFs once the agent was back; agent acked "
             << agent_json["link"]["kfs_acked"] << " KFs\n";
+}
+
+TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) {
+  // No clean stop: the process dies between autosaves (every 2 s). The map file on disk is
+  // a complete generation (written, fsynced, renamed), the one before it is kept as .prev,
+  // and a new server loads it; the agent, still flying, reconnects and ends with every
+  // keyframe acknowledged (what the killed server had not saved is resent from the agent's
+  // unacknowledged buffer or DDS history).
+  constexpr int kKillDomain = 186;
+  const std::string dir = ::testing::TempDir() + "/daemon_kill";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string map_file = dir + "/stack.ccmmap";
+  auto server = std::make_unique<ChildProcess>(ServerCommand(map_file, kKillDomain), dir + "/server1.log");
+  ChildProcess agent({CCM_AGENT, "--agent-id", "1", "--sim", "hall3", "--sim-agent", "0", "--max-frames", "500",
+                      "--rate", "realtime", "--drain", "30", "--qos", Qos(), "--domain", std::to_string(kKillDomain),
+                      "--log-level", "warn"},
+                     dir + "/agent.log");
+  ASSERT_TRUE(server->started() && agent.started());
+  const nlohmann::json before = WaitForStatus(
+      dir, std::chrono::seconds(40),
+      [](const nlohmann::json& s) {
+        const auto* a = Agent(s, 1);
+        return a != nullptr && (*a)["keyframes_registered"].get<int>() >= 15 && s["last_save_s"].get<double>() >= 3.0;
+      },
+      kKillDomain);
+  ASSERT_NE(Agent(before, 1), nullptr) << before.dump(1) << "\n" << server->Output();
+  ASSERT_TRUE(server->Signal(SIGKILL));
+  server->Wait(std::chrono::seconds(10));
+  const std::string out1 = server->Output();
+  server.reset();
+  ASSERT_TRUE(std::filesystem::exists(map_file)) << out1;
+  EXPECT_TRUE(std::filesystem::exists(map_file + ".prev")) << "two autosaves keep a previous generation\n" << out1;
+
+  ChildProcess server2(ServerCommand(map_file, kKillDomain), dir + "/server2.log");
+  const nlohmann::json after = WaitForStatus(
+      dir, std::chrono::seconds(40),
+      [](const nlohmann::json& s) {
+        const auto* a = Agent(s, 1);
+        return a != nullptr && (*a)["alive"].get<bool>() && (*a)["keyframes_registered"].get<int>() >= 3;
+      },
+      kKillDomain);
+  EXPECT_NE(server2.Output().find("loaded " + map_file), std::string::npos) << server2.Output();
+  EXPECT_EQ(server2.Output().find("previous generation"), std::string::npos) << "the newest file must load\n"
+                                                                             << server2.Output();
+  ASSERT_NE(Agent(after, 1), nullptr) << after.dump(1) << "\n" << server2.Output();
+  EXPECT_EQ(agent.Wait(std::chrono::seconds(90)), 0) << agent.Output();
+  const std::string agent_out = agent.Output();
+  const auto agent_json = nlohmann::json::parse(agent_out.substr(agent_out.rfind("\n{") + 1), nullptr, false);
+  ASSERT_TRUE(agent_json.is_object()) << agent_out;
+  EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
+  ASSERT_TRUE(server2.Signal(SIGTERM));
+  EXPECT_EQ(server2.Wait(std::chrono::seconds(60)), 0) << server2.Output();
+  std::cout << "killed with " << MapKeyframes(before) << " KFs in status (last autosave at "
+            << before["last_save_s"] << " s); the restarted server had " << MapKeyframes(after)
+            << " KFs once the agent was back; agent acked " << agent_json["link"]["kfs_acked"] << " KFs\n";
 }
 
 TEST(Daemon, CtlReportsNoServerWithExitCode1) {
