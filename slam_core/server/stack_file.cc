@@ -75,6 +75,10 @@ bool WriteStackFile(const std::string& path, const std::string& payload, std::st
     const std::string prev = PreviousGeneration(path), prev_tmp = prev + ".tmp";
     std::filesystem::remove(prev_tmp, ec);
     std::filesystem::create_hard_link(path, prev_tmp, ec);
+    if (ec) {  // a file system without hard links: a copy does the same, slower
+      ec.clear();
+      std::filesystem::copy_file(path, prev_tmp, std::filesystem::copy_options::overwrite_existing, ec);
+    }
     if (ec || std::rename(prev_tmp.c_str(), prev.c_str()) != 0) {
       *error = "cannot keep the previous generation as " + prev + ": " + (ec ? ec.message() : Errno());
       return false;
