@@ -305,7 +305,7 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
 }  // namespace
 
 bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>& events, const std::string& path,
-                          std::string* error, int* handlers_left_out) {
+                          std::string* error) {
   StackRecord rec;
   std::map<CameraRecord, uint32_t> cameras;
   std::set<uint64_t> saved_maps;
@@ -318,19 +318,14 @@ bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>&
   rec.cameras.resize(cameras.size());
   for (const auto& [c, i] : cameras) rec.cameras[i] = c;
   rec.next_map = stack.next_map_counter();
-  int left_out = 0;
   for (const AgentHandler& h : stack.Handlers()) {
-    if (!saved_maps.count(h.map.packed())) {
-      ++left_out;
-      continue;
-    }
+    if (!saved_maps.count(h.map.packed())) continue;
     const Sim3& S = h.map_from_segment;
     rec.handlers.push_back({h.agent, h.segment.packed(), h.map.packed(), h.last_keyframe.packed(), S.scale(),
                             {S.rotation().x(), S.rotation().y(), S.rotation().z(), S.rotation().w(), S.translation().x(),
                              S.translation().y(), S.translation().z()},
                             h.scale, h.keyframes});
   }
-  if (handlers_left_out) *handlers_left_out = left_out;
   for (const ServerEvent& e : events) {
     rec.events.push_back({static_cast<int>(e.kind), e.time_s, e.seconds, e.stamp_ns, e.agent, e.map.packed(),
                           e.other_map.packed(), e.query.packed(), e.candidate.packed(), e.keyframes, e.detail});

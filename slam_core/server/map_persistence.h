@@ -28,10 +28,10 @@ class MapPersistence {
  public:
   /// While the back-end runs: each map is copied under its shared structure lock; the
   /// handlers are taken after the maps, and one whose map is not in the file (created, or
-  /// fused into another, while the maps were copied) is left out, so the file always loads.
-  /// *handlers_left_out (optional) counts those (their agents' next data opens a new map).
+  /// fused into another, while the maps were copied) is left out, so the file always loads
+  /// (that agent's next data opens a new map).
   static bool Save(const MapStack& stack, const std::vector<ServerEvent>& events, const std::string& path,
-                   std::string* error, int* handlers_left_out = nullptr);
+                   std::string* error);
   /// The newest generation that reads back; when that is path.prev (path itself unreadable
   /// or corrupt), *warning says why.
   static std::optional<MapStackContents> Load(const std::string& path, const MapOptions& map_options,

@@ -59,6 +59,11 @@ nlohmann::json WaitForStatus(const std::string& dir, std::chrono::seconds timeou
   return last;
 }
 
+/// The JSON summary ccm_agent prints as its last line (not an object if it is missing).
+nlohmann::json AgentSummary(const std::string& agent_output) {
+  return nlohmann::json::parse(agent_output.substr(agent_output.rfind("\n{") + 1), nullptr, false);
+}
+
 std::vector<std::string> ServerCommand(const std::string& map_file, int domain = kDomain) {
   return {CCM_SERVER, "--qos", Qos(), "--domain", std::to_string(domain), "--map-file", map_file,
           "--autosave", "2", "--progress", "1000", "--log-level", "info"};
@@ -132,7 +137,7 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
   // The agent finishes its flight; the new server acknowledged everything it sent.
   EXPECT_EQ(agent.Wait(std::chrono::seconds(90)), 0) << agent.Output();
   const std::string agent_out = agent.Output();
-  const auto agent_json = nlohmann::json::parse(agent_out.substr(agent_out.rfind("\n{") + 1), nullptr, false);
+  const auto agent_json = AgentSummary(agent_out);
   ASSERT_TRUE(agent_json.is_object()) << agent_out;
   EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
   ASSERT_TRUE(server2.Signal(SIGINT));
@@ -194,7 +199,7 @@ TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) 
   ASSERT_NE(Agent(after, 1), nullptr) << after.dump(1) << "\n" << server2.Output();
   EXPECT_EQ(agent.Wait(std::chrono::seconds(90)), 0) << agent.Output();
   const std::string agent_out = agent.Output();
-  const auto agent_json = nlohmann::json::parse(agent_out.substr(agent_out.rfind("\n{") + 1), nullptr, false);
+  const auto agent_json = AgentSummary(agent_out);
   ASSERT_TRUE(agent_json.is_object()) << agent_out;
   EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
   ASSERT_TRUE(server2.Signal(SIGTERM));

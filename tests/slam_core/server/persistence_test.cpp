@@ -23,6 +23,16 @@ std::string TempPath(const std::string& name) {
   return (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
 }
 
+std::string ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << bytes;
+}
+
 void ExpectEqualStacks(const ServerBackend& a, const ServerBackend& b) {
   const auto ma = a.stack().Maps(), mb = b.stack().Maps();
   ASSERT_EQ(ma.size(), mb.size());
@@ -103,15 +113,8 @@ TEST(Persistence, CorruptedTruncatedAndForeignFilesAreRefused) {
   const std::string path = TempPath("ccm_stack_bad.bin");
   std::string error;
   ASSERT_TRUE(backend.Save(path, &error)) << error;
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  auto write = [&](const std::string& content) {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << content;
-  };
+  const std::string bytes = ReadBytes(path);
+  auto write = [&](const std::string& content) { WriteBytes(path, content); };
   std::string flipped = bytes;
   flipped[bytes.size() / 2] ^= 0x10;
   write(flipped);
@@ -156,16 +159,9 @@ TEST(Persistence, ACorruptNewestGenerationFallsBackToThePreviousOne) {
   EXPECT_TRUE(warning.empty()) << warning;
   EXPECT_EQ(newest->Maps().at(0).keyframes, second_keyframes);
 
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = ReadBytes(path);
   bytes[bytes.size() / 2] ^= 0x01;
-  {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << bytes;
-  }
+  WriteBytes(path, bytes);
   auto fallback = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning);
   ASSERT_NE(fallback, nullptr) << error;
   EXPECT_NE(warning.find("checksum"), std::string::npos) << warning;
@@ -173,11 +169,7 @@ TEST(Persistence, ACorruptNewestGenerationFallsBackToThePreviousOne) {
   EXPECT_EQ(fallback->Maps().at(0).keyframes, first_keyframes);
 
   // Both generations unreadable: a clear error naming both.
-  std::remove(prev.c_str());
-  {
-    std::ofstream out(prev, std::ios::binary);
-    out << "garbage";
-  }
+  WriteBytes(prev, "garbage");
   EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning), nullptr);
   EXPECT_NE(error.find("previous generation too"), std::string::npos) << error;
   std::remove(path.c_str());
