@@ -59,4 +59,29 @@ void CommonNodeGroups(const FeatureVector& a, const FeatureVector& b,
   }
 }
 
+std::vector<NodeId> NodesOfFeatures(const FeatureVector& features, std::size_t num_features) {
+  std::vector<NodeId> out(num_features, kNoNode);
+  for (const auto& [node, indices] : features.nodes) {
+    for (const int i : indices) {
+      if (i >= 0 && static_cast<std::size_t>(i) < num_features) out[i] = node;
+    }
+  }
+  return out;
+}
+
+FeatureVector FeatureVectorOf(const std::vector<NodeId>& node_per_feature) {
+  std::vector<std::pair<NodeId, int>> pairs;
+  pairs.reserve(node_per_feature.size());
+  for (std::size_t i = 0; i < node_per_feature.size(); ++i) {
+    if (node_per_feature[i] != kNoNode) pairs.emplace_back(node_per_feature[i], static_cast<int>(i));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  FeatureVector out;
+  for (const auto& [node, i] : pairs) {
+    if (out.nodes.empty() || out.nodes.back().first != node) out.nodes.emplace_back(node, std::vector<int>{});
+    out.nodes.back().second.push_back(i);
+  }
+  return out;
+}
+
 }  // namespace ccm

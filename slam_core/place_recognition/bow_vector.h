@@ -39,6 +39,13 @@ struct FeatureVector {
   std::size_t size() const { return nodes.size(); }
 };
 
+/// The direct index as one node per feature (index = feature), the compact form to keep per
+/// keyframe; kNoNode for features the index does not hold.
+constexpr NodeId kNoNode = ~NodeId{0};
+std::vector<NodeId> NodesOfFeatures(const FeatureVector& features, std::size_t num_features);
+/// Back from one node per feature to the direct index (kNoNode entries left out).
+FeatureVector FeatureVectorOf(const std::vector<NodeId>& node_per_feature);
+
 /// Features of `a` and `b` that share a node: groups1[g] of a may match groups2[g] of b.
 /// Merge-scan over both sorted lists (the layout of ccm::MatchGroups).
 void CommonNodeGroups(const FeatureVector& a, const FeatureVector& b,

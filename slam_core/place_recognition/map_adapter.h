@@ -5,6 +5,10 @@
 // snapshot is then a consistent-enough copy, as ORB-SLAM's loop closer sees.
 #pragma once
 
+#include <functional>
+#include <memory>
+#include <vector>
+
 #include "slam_core/map/keyframe.h"
 #include "slam_core/map/map.h"
 #include "slam_core/place_recognition/geometric_verification.h"
@@ -18,6 +22,23 @@ namespace ccm {
 /// `bow` (optional) receives the keyframe's bag of words from the same pass.
 VerificationView MakeVerificationView(const KeyFrame& kf, const Map& map, const Vocabulary& vocab,
                                       int levels_up = 4, BowVector* bow = nullptr);
+
+/// Per keypoint of a keyframe, its vocabulary node at the direct-index depth
+/// (NodesOfFeatures): a caller that keeps them from the keyframe's query spares the
+/// vocabulary descent for every verification.
+using KeypointNodesFn = std::function<std::vector<NodeId>(const KeyFrame&)>;
+/// Computes them with `vocab` each time (levels_up as in Vocabulary::Transform).
+KeypointNodesFn VocabularyNodes(const Vocabulary& vocab, int levels_up);
+
+/// Verification input for `kf` and the place around it (ORB-SLAM3's merge window): the view
+/// of `kf` followed by one extra feature per good map point that a keyframe of `neighbours`
+/// sees, `kf` does not, and that projects into `kf`'s image (keypoint at that projection,
+/// the neighbour's descriptor, level moved by the depth ratio). A query seen from another
+/// height or angle than `kf` finds more of its points in the window than in `kf` alone, so
+/// brief and oblique overlaps pass the BoW stage. Indices >= kf's keypoint count are the
+/// extra features (`real_keypoints` receives that count). No neighbours: `kf`'s own view.
+VerificationView MakeWindowView(const KeyFrame& kf, const std::vector<std::shared_ptr<KeyFrame>>& neighbours,
+                                const Map& map, const KeypointNodesFn& nodes, size_t* real_keypoints);
 
 /// Best covisible keyframes from `map` (empty for unknown keyframes). The map must outlive
 /// the returned function.

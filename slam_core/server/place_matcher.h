@@ -14,6 +14,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "slam_core/place_recognition/geometric_verification.h"
@@ -60,7 +61,11 @@ class PlaceMatcher {
   /// Adds a keyframe's bag of words without querying (rebuilding the database after a load).
   void AddToDatabase(const KeyFrame& kf, MapId map);
   /// Database upkeep from other stages.
-  void OnKeyframeErased(KeyframeId kf) { database_.Erase(kf); }
+  void OnKeyframeErased(KeyframeId kf) {
+    database_.Erase(kf);
+    std::lock_guard<std::mutex> lock(nodes_mutex_);
+    nodes_.erase(kf);
+  }
   void OnMapsFused(MapId from, MapId into);
   void OnLoopClosed(MapId map);
 
@@ -81,6 +86,8 @@ class PlaceMatcher {
     SE3 world_from_cam;
     double depth = 1.0;
     std::vector<KeyframeId> covisible;  ///< best few, for confirmation
+    /// Keypoints of the keyframe itself; a window view (MakeWindowView) has more features.
+    size_t real_keypoints = 0;
   };
   static constexpr int kConfirmNeighbours = 3;
   struct Pending {
@@ -93,10 +100,14 @@ class PlaceMatcher {
   std::optional<PlaceDetection> TryCandidates(const QuerySnapshot& q, const std::vector<PlaceCandidate>& candidates,
                                               PlaceDetection::Kind kind);
   std::optional<PlaceDetection> CheckConsistency(const Pending& fresh);
-  std::optional<View> Snapshot(KeyframeId id) const;
+  /// `window`: the keyframe with its best covisible neighbours (options_.candidate_window).
+  std::optional<View> Snapshot(KeyframeId id, bool window = false) const;
   std::optional<Pending> Verify(const View& query, const View& candidate, PlaceDetection::Kind kind);
   std::optional<PlaceDetection> ConfirmWithNeighbours(const View& q, const View& c, const Pending& first);
   bool Agree(const Pending& a, const Pending& b) const;
+  /// Vocabulary nodes of a keyframe's keypoints: kept from its query, computed if missing.
+  std::vector<NodeId> NodesOf(const KeyFrame& kf) const;
+  void KeepNodes(KeyframeId kf, const FeatureVector& features, size_t num_features);
   /// DriftPath between two keyframes of `to`'s map (nullopt: no map, or two agents no chain
   /// of junctions joins).
   std::optional<double> DriftPathBetween(KeyframeId from, KeyframeId to) const;
@@ -113,6 +124,10 @@ class PlaceMatcher {
   std::map<std::tuple<int, MapId, MapId>, Pending> pending_;
   std::map<AgentId, int64_t> agent_queries_;
   std::map<MapId, int64_t> keyframes_since_loop_;
+  /// Direct index per keyframe as one node per keypoint (4 bytes each): verification views
+  /// of candidates and their windows are built from these instead of a vocabulary descent.
+  mutable std::mutex nodes_mutex_;  // leaf; guards nodes_ (erased from other stages)
+  mutable std::unordered_map<KeyframeId, std::vector<NodeId>> nodes_;
   mutable std::mutex stats_mutex_;  // leaf; guards stats_ (written by Process, read by anyone)
   PlaceMatcherStats stats_;
 };

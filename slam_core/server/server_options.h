@@ -63,6 +63,11 @@ struct PlaceMatchingOptions {
   /// depth 2 of whatever vocabulary is loaded (ORB-SLAM's choice), so a deeper default
   /// vocabulary needs no second setting.
   int vocabulary_levels_up = -1;
+  /// Map-matching candidates are verified together with this many of their best covisible
+  /// keyframes (MakeWindowView; ORB-SLAM3 merges with 5 in all): the query's points are
+  /// matched against the whole place, not one view of it. 0: the candidate keyframe alone
+  /// (CCM-SLAM). Loop candidates are always verified alone.
+  int candidate_window = 4;
   /// A map needs this many keyframes before loops inside it are searched.
   int loop_min_map_keyframes = 12;
   /// Two verified detections from different query keyframes must agree (temporal and

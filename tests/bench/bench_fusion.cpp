@@ -132,6 +132,10 @@ int main(int argc, char** argv) {
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
+  app.add_option("--candidate-window", replay.server.place.candidate_window,
+                 "place recognition: covisible keyframes verified with each candidate (0: the candidate alone)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 20));
   CLI11_PARSE(app, argc, argv);
 
   std::vector<std::uint64_t> seeds;
