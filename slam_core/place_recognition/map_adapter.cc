@@ -7,21 +7,31 @@
 
 namespace ccm {
 
-VerificationView MakeVerificationView(const KeyFrame& kf, const Map& map, const Vocabulary& vocab,
-                                      int levels_up, BowVector* bow) {
+namespace {
+
+// `kf`'s own part of a view: features, camera, pyramid and its good map points in its camera
+// frame (NaN where it has none).
+VerificationView OwnView(const KeyFrame& kf, const Map& map) {
   VerificationView view;
   view.camera = kf.camera_ptr();
   view.features = kf.features();
   view.pyramid = kf.pyramid();
   const SE3 cam_from_world = kf.cam_from_world();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  view.points_cam.assign(view.features.size(), Eigen::Vector3d::Constant(nan));
+  view.points_cam.assign(view.features.size(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   const std::vector<MapPointId> points = kf.map_points();
   for (std::size_t i = 0; i < points.size() && i < view.points_cam.size(); ++i) {
     if (!points[i].valid()) continue;
     const std::shared_ptr<MapPoint> mp = map.map_point(points[i]);
     if (mp && !mp->bad()) view.points_cam[i] = cam_from_world * mp->position();
   }
+  return view;
+}
+
+}  // namespace
+
+VerificationView MakeVerificationView(const KeyFrame& kf, const Map& map, const Vocabulary& vocab,
+                                      int levels_up, BowVector* bow) {
+  VerificationView view = OwnView(kf, map);
   BowVector local;
   vocab.Transform(view.features.descriptors, bow ? bow : &local, &view.feature_vector, levels_up);
   return view;
@@ -40,23 +50,15 @@ KeypointNodesFn VocabularyNodes(const Vocabulary& vocab, int levels_up) {
 
 VerificationView MakeWindowView(const KeyFrame& kf, const std::vector<std::shared_ptr<KeyFrame>>& neighbours,
                                 const Map& map, const KeypointNodesFn& nodes, size_t* real_keypoints) {
-  VerificationView view;
-  view.camera = kf.camera_ptr();
-  view.features = kf.features();
-  view.pyramid = kf.pyramid();
+  VerificationView view = OwnView(kf, map);
   *real_keypoints = view.features.size();
   const SE3 cam_from_world = kf.cam_from_world();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  view.points_cam.assign(view.features.size(), Eigen::Vector3d::Constant(nan));
   std::vector<NodeId> node_of = nodes(kf);
   node_of.resize(view.features.size(), kNoNode);
+  // Every point kf sees, good or not, is its own: only the others' are added.
   std::unordered_set<MapPointId> seen;
-  const std::vector<MapPointId> own = kf.map_points();
-  for (std::size_t i = 0; i < own.size() && i < view.points_cam.size(); ++i) {
-    if (!own[i].valid()) continue;
-    seen.insert(own[i]);
-    const std::shared_ptr<MapPoint> mp = map.map_point(own[i]);
-    if (mp && !mp->bad()) view.points_cam[i] = cam_from_world * mp->position();
+  for (const MapPointId id : kf.map_points()) {
+    if (id.valid()) seen.insert(id);
   }
   const double log_sf = std::log(view.pyramid.scale_factor);
   for (const auto& n : neighbours) {

@@ -36,22 +36,11 @@ TEST(MapAdapterTest, KeyframeOfAMapVerifiesAgainstItsSnapshot) {
 
   Map map(MapId::Make(1, 1));
   const KeyframeId kf_id = KeyframeId::Make(1, 1);
-  auto kf = std::make_shared<KeyFrame>(kf_id, 0, snap.view.camera,
-                                       std::make_shared<const FrameFeatures>(snap.view.features),
-                                       std::make_shared<const ScalePyramid>(snap.view.pyramid),
-                                       snap.world_from_cam);
-  ASSERT_TRUE(map.AddKeyframe(kf));
   IdGenerator<MapPointId> ids(1);
-  int num_points = 0;
-  for (int i = 0; i < static_cast<int>(snap.view.features.size()); ++i) {
-    if (!snap.view.HasPoint(i)) continue;
-    const Eigen::Vector3d p_w = snap.world_from_cam * snap.view.points_cam[i];
-    auto mp = std::make_shared<MapPoint>(ids.Next(), p_w, kf_id, snap.view.features.descriptors[i]);
-    ASSERT_TRUE(map.AddMapPoint(mp));
-    ASSERT_TRUE(map.AddObservation(kf_id, i, mp->id()));
-    ++num_points;
-  }
-  ASSERT_GT(num_points, 100);
+  const auto kf = AddSnapshot(snap, kf_id, &map, &ids);
+  ASSERT_TRUE(kf);
+  const size_t num_points = map.num_map_points();
+  ASSERT_GT(num_points, 100u);
 
   BowVector bow;
   const int levels_up = DefaultVocabulary().levels() - 2;  // as MakeSimKeyframes: depth 2
