@@ -8,6 +8,15 @@
 namespace ccm::test {
 namespace {
 
+// Keyframe snapshots of hall3's first agent (empty if the scene does not load).
+std::vector<SimKeyframe> Hall3Keyframes(const SimKeyframeOptions& o) {
+  std::string error;
+  const auto scenario = sim::LoadScenario("hall3", &error);
+  const auto s = scenario ? sim::Simulation::Create(*scenario, &error) : nullptr;
+  EXPECT_TRUE(s) << error;
+  return s ? MakeSimKeyframes(*s, 0, DefaultVocabulary(), o) : std::vector<SimKeyframe>{};
+}
+
 // Puts a simulator snapshot into `map` as a keyframe with one new map point per 3D point.
 std::shared_ptr<KeyFrame> AddSnapshot(const SimKeyframe& snap, KeyframeId id, Map* map, IdGenerator<MapPointId>* ids) {
   auto kf = std::make_shared<KeyFrame>(id, 0, snap.view.camera, std::make_shared<const FrameFeatures>(snap.view.features),
@@ -23,14 +32,9 @@ std::shared_ptr<KeyFrame> AddSnapshot(const SimKeyframe& snap, KeyframeId id, Ma
 }
 
 TEST(MapAdapterTest, KeyframeOfAMapVerifiesAgainstItsSnapshot) {
-  std::string error;
-  auto scenario = sim::LoadScenario("hall3", &error);
-  ASSERT_TRUE(scenario) << error;
-  auto s = sim::Simulation::Create(*scenario, &error);
-  ASSERT_TRUE(s) << error;
   SimKeyframeOptions o;
   o.stride = 400;
-  const std::vector<SimKeyframe> kfs = MakeSimKeyframes(*s, 0, DefaultVocabulary(), o);
+  const std::vector<SimKeyframe> kfs = Hall3Keyframes(o);
   ASSERT_GE(kfs.size(), 2u);
   const SimKeyframe& snap = kfs[0];
 
@@ -63,15 +67,10 @@ TEST(MapAdapterTest, KeyframeOfAMapVerifiesAgainstItsSnapshot) {
 }
 
 TEST(MapAdapterTest, WindowViewAddsTheNeighboursPointsWhereTheKeyframeSeesThem) {
-  std::string error;
-  auto scenario = sim::LoadScenario("hall3", &error);
-  ASSERT_TRUE(scenario) << error;
-  auto s = sim::Simulation::Create(*scenario, &error);
-  ASSERT_TRUE(s) << error;
   SimKeyframeOptions o;
   o.stride = 12;
   o.max_keyframes = 3;
-  const std::vector<SimKeyframe> kfs = MakeSimKeyframes(*s, 0, DefaultVocabulary(), o);
+  const std::vector<SimKeyframe> kfs = Hall3Keyframes(o);
   ASSERT_EQ(kfs.size(), 3u);
   Map map(MapId::Make(1, 1));
   IdGenerator<MapPointId> ids(1);
