@@ -90,14 +90,12 @@ void Vocabulary::Transform(const std::vector<OrbDescriptor>& descriptors, BowVec
   if (empty()) return;
   const int level = std::max(1, levels_ - levels_up);
   std::vector<std::pair<WordId, float>> words;
-  std::vector<std::pair<NodeId, int>> node_of_feature;
+  std::vector<NodeId> node_of_feature;
   words.reserve(descriptors.size());
-  if (features) node_of_feature.reserve(descriptors.size());
+  if (features) node_of_feature.assign(descriptors.size(), kNoNode);
   for (std::size_t i = 0; i < descriptors.size(); ++i) {
-    NodeId node = 0;
-    const WordId w = Transform(descriptors[i], features ? &node : nullptr, level);
+    const WordId w = Transform(descriptors[i], features ? &node_of_feature[i] : nullptr, level);
     words.emplace_back(w, WordWeight(w));
-    if (features) node_of_feature.emplace_back(node, static_cast<int>(i));
   }
   // TF-IDF: each occurrence adds the word's IDF; the L1 normalization divides by the count.
   std::sort(words.begin(), words.end());
@@ -112,15 +110,7 @@ void Vocabulary::Transform(const std::vector<OrbDescriptor>& descriptors, BowVec
                                     [](const std::pair<WordId, float>& e) { return e.second <= 0.f; }),
                      bow->entries.end());
   bow->NormalizeL1();
-  if (features) {
-    std::sort(node_of_feature.begin(), node_of_feature.end());
-    for (const auto& nf : node_of_feature) {
-      if (features->nodes.empty() || features->nodes.back().first != nf.first) {
-        features->nodes.emplace_back(nf.first, std::vector<int>{});
-      }
-      features->nodes.back().second.push_back(nf.second);
-    }
-  }
+  if (features) *features = FeatureVectorOf(node_of_feature);
 }
 
 }  // namespace ccm
