@@ -45,6 +45,11 @@ OptimizationSummary OptimizePose(const CameraModel& camera,
                                  const std::vector<PointObservation>& observations,
                                  SE3* world_from_cam, const PoseOptimizerOptions& options = {});
 
+/// Flags each observation as an inlier (projects, chi2 within the threshold) at a given
+/// pose without moving it; returns how many are.
+int ClassifyObservations(const CameraModel& camera, const std::vector<PointObservation>& observations,
+                         const SE3& cam_from_world, double chi2_threshold, std::vector<bool>* inlier);
+
 /// kAuto: DENSE_SCHUR up to kDenseSchurMaxFreePoses free poses (local BA windows), else
 /// SPARSE_SCHUR (SuiteSparse when Ceres has it, else Eigen's sparse Cholesky).
 enum class BaLinearSolver { kAuto, kSparseSchur, kIterativeSchur, kDenseSchur };

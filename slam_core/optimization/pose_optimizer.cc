@@ -43,7 +43,9 @@ ceres::Solver::Summary RunPosePass(const CameraModel& camera, const std::vector<
 }
 
 // chi2 of every observation at the pose; unprojectable ones are outliers.
-int Classify(const CameraModel& camera, const std::vector<PointObservation>& obs, const SE3& cam_from_world,
+}  // namespace
+
+int ClassifyObservations(const CameraModel& camera, const std::vector<PointObservation>& obs, const SE3& cam_from_world,
              double chi2_threshold, std::vector<bool>* inlier) {
   int n = 0;
   for (size_t i = 0; i < obs.size(); ++i) {
@@ -55,8 +57,6 @@ int Classify(const CameraModel& camera, const std::vector<PointObservation>& obs
   }
   return n;
 }
-
-}  // namespace
 
 std::string PoseOptimizerOptions::Validate() const {
   if (num_rounds < 1 || iterations_per_round < 1) return "num_rounds and iterations_per_round must be >= 1";
@@ -94,7 +94,7 @@ OptimizationSummary OptimizePose(const CameraModel& camera, const std::vector<Po
     out.iterations += std::max(0, static_cast<int>(s.iterations.size()) - 1);
     out.message = s.BriefReport();
     const std::vector<bool> before = active;
-    num_active = Classify(camera, observations, UnpackSe3(pose), options.chi2_threshold, &active);
+    num_active = ClassifyObservations(camera, observations, UnpackSe3(pose), options.chi2_threshold, &active);
     // Classification converged: further robust rounds would repeat this one exactly, so go
     // straight to the final (non-robust) round. Saves up to two solves per tracked frame.
     if (active == before && round + 2 < options.num_rounds) round = options.num_rounds - 2;

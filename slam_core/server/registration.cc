@@ -1,6 +1,7 @@
 #include "slam_core/server/registration.h"
 
 #include <algorithm>
+#include <unordered_set>
 
 #include "slam_core/optimization/bundle_adjustment.h"
 
@@ -102,7 +103,12 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
     }
   }
   int inliers = 0;
-  reg.refined = RefinePose(smap, kf.get(), &inliers);
+  bool kept_on_track = false;
+  const KeyframeId continuity = reg.placement == RegisteredKeyframe::Placement::kPredecessor ? data.predecessor
+                                : reg.placement == RegisteredKeyframe::Placement::kParent    ? data.parent
+                                                                                              : KeyframeId();
+  reg.refined = RefinePose(smap, kf.get(), continuity, &inliers, &kept_on_track);
+  report->kept_on_track += kept_on_track;
   if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
     UpdateScale(handler, data, smap, *kf);
   }
@@ -149,7 +155,8 @@ void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, S
   ++report->anchors_registered;
 }
 
-bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers) {
+bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId continuity, int* inliers,
+                                   bool* kept_on_track) {
   Map& map = smap->map();
   std::vector<opt::PointObservation> obs;
   std::vector<std::pair<int, MapPointId>> refs;
@@ -165,12 +172,36 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, int* inliers) 
   *inliers = 0;
   if (static_cast<int>(obs.size()) < options_.refine_min_inliers) return false;
   SE3 pose = kf->world_from_cam();
-  const opt::OptimizationSummary s = opt::OptimizePose(kf->camera(), obs, &pose);
+  opt::OptimizationSummary s = opt::OptimizePose(kf->camera(), obs, &pose);
   // Most links must agree: a placement far off (or wrong links) would converge to
   // something wrong, and its outliers must not be erased then.
-  if (!s.usable || s.num_inliers < options_.refine_min_inliers || 2 * s.num_inliers < static_cast<int>(obs.size())) {
-    return false;
+  bool ok = s.usable && s.num_inliers >= options_.refine_min_inliers && 2 * s.num_inliers >= static_cast<int>(obs.size());
+  const auto before = continuity.valid() ? map.keyframe(continuity) : nullptr;
+  if (!ok && before) {
+    // Most links disagree with every pose. Seen when an agent is back where it was and
+    // tracks old points that the server holds elsewhere (drift the server has not closed as
+    // a loop yet, or points it fused differently): left in the map, those links tear it
+    // between this keyframe and its predecessor, local BA bends the agent's whole part
+    // around the tear, and the keyframe looks covisible with the old ones, which hides the
+    // loop from place recognition. The points the predecessor sees as well carry the track:
+    // if they agree on a pose, it is the keyframe's, and the links that disagree with it are
+    // dropped (loop closing joins the two places properly).
+    const auto seen_before = before->map_points();
+    const std::unordered_set<MapPointId> continuing(seen_before.begin(), seen_before.end());
+    std::vector<opt::PointObservation> tracked;
+    for (size_t i = 0; i < refs.size(); ++i) {
+      if (continuing.count(refs[i].second)) tracked.push_back(obs[i]);
+    }
+    SE3 continued = kf->world_from_cam();
+    const opt::OptimizationSummary c = opt::OptimizePose(kf->camera(), tracked, &continued);
+    if (c.usable && c.num_inliers >= options_.refine_min_inliers && 2 * c.num_inliers >= static_cast<int>(tracked.size())) {
+      pose = continued;
+      s.inlier.assign(obs.size(), false);
+      s.num_inliers = opt::ClassifyObservations(kf->camera(), obs, pose.inverse(), opt::kChi2Mono2Dof, &s.inlier);
+      ok = *kept_on_track = true;
+    }
   }
+  if (!ok) return false;
   kf->SetWorldFromCam(pose);
   *inliers = s.num_inliers;
   // Outlier links would pull later optimizations: drop them (the agent's link was wrong or

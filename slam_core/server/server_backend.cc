@@ -217,6 +217,7 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     c.keyframes_registered += static_cast<int64_t>(report.keyframes.size());
     c.keyframes_duplicate += skipped;
     c.keyframes_anchor_only += report.anchors_registered + report.anchors_dropped;
+    c.keyframes_kept_on_track += report.kept_on_track;
     c.points_registered += report.points_registered;
     c.updates_applied += report.keyframe_updates_applied + report.point_updates_applied;
     c.updates_ignored += report.updates_ignored;

@@ -64,6 +64,9 @@ struct AgentCounters {
   int64_t keyframes_registered = 0;
   int64_t keyframes_duplicate = 0;   ///< skipped as near-duplicates (anchored)
   int64_t keyframes_anchor_only = 0; ///< near-duplicates the agent sent as anchors only
+  /// Keyframes whose links mostly disagreed, placed on the points their predecessor sees
+  /// (an agent back at old points before the loop was closed); registration.cc RefinePose.
+  int64_t keyframes_kept_on_track = 0;
   int64_t points_registered = 0;
   int64_t updates_applied = 0;
   int64_t updates_ignored = 0;

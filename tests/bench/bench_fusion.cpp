@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
   CLI::App app{"bench_fusion: map fusion, loops and VO over generated multi-agent scenes, scored on ground truth"};
   std::string seeds_text, set, out_dir, record_dir, play_dir, vocab_path = CCM_DEFAULT_VOCABULARY;
   int jobs = 1;
-  bool no_sharing = false;
+  bool no_sharing = false, events = false;
   ccm::sim::SceneGeneratorOptions gen;
   ccm::replay::ReplayOptions replay;
   app.add_option("--seeds", seeds_text, "seeds, e.g. 1-20 or 3,7,1001-1005");
@@ -130,6 +130,7 @@ int main(int argc, char** argv) {
   app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();
   app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
+  app.add_flag("--events", events, "print every fusion and loop with its ground-truth check");
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   app.add_option("--candidate-window", replay.server.place.candidate_window,
@@ -178,7 +179,7 @@ int main(int argc, char** argv) {
       for (size_t i; (i = next++) < seeds.size();) {
         results[i] = RunScene(seeds[i], gen, replay, vocab, record_dir, play_dir);
         std::lock_guard<std::mutex> lock(print_mutex);
-        std::fputs(ccm::bench::SceneBlock(results[i]).c_str(), stdout);
+        std::fputs(ccm::bench::SceneBlock(results[i], events).c_str(), stdout);
         std::fflush(stdout);
         if (jsonl.is_open()) jsonl << ccm::bench::SceneJson(results[i]).dump() << "\n" << std::flush;
       }

@@ -35,9 +35,15 @@ std::string PairLine(const PairScore& p) {
   return s;
 }
 
+std::string EventLine(const char* kind, const DetectionCheck& c) {
+  return Format("  %s %u/%u: rotation error %.1f deg, direction error %.1f deg, scale error %+.1f %%, view share %.2f%s; %s\n",
+                kind, c.event.query.agent(), c.event.candidate.agent(), c.rotation_error_deg, c.direction_error_deg,
+                100.0 * c.scale_error, c.view_share, c.wrong ? " WRONG" : "", c.event.detail.c_str());
+}
+
 }  // namespace
 
-std::string SceneBlock(const SceneResult& r) {
+std::string SceneBlock(const SceneResult& r, bool events) {
   std::string s = Format("seed %llu: %s", static_cast<unsigned long long>(r.scene.seed), r.scene.Summary().c_str());
   if (!r.error.empty()) return s + "\n  error: " + r.error + "\n";
   const SceneScore& sc = r.score;
@@ -61,8 +67,21 @@ std::string SceneBlock(const SceneResult& r) {
     }
   }
   s += Format("; inconsistent %lld\n", static_cast<long long>(r.place.inconsistent));
+  if (events) {
+    for (const DetectionCheck& c : sc.fusions) s += EventLine("fusion", c);
+    for (const DetectionCheck& c : sc.loops) s += EventLine("loop", c);
+    for (const MapScore& m : sc.maps) {
+      if (m.agents.size() < 2) continue;
+      s += Format("  map %u:%llu: %zu keyframes, joint ATE %.3f m;", m.id.agent(), static_cast<unsigned long long>(m.id.counter()), m.keyframes, m.joint_ate_m);
+      for (size_t i = 0; i < m.own_ate_m.size(); ++i) {
+        s += Format(" agent%d own %.3f / joint %.3f m, scale %.3f;", m.agents[i], m.own_ate_m[i],
+                    m.joint_ate_per_agent_m[i], m.agent_scale[i]);
+      }
+      s += "\n";
+    }
+  }
   for (const DetectionCheck& c : sc.fusions) {
-    if (c.wrong) {
+    if (c.wrong && !events) {
       s += Format("  WRONG fusion: agents %u/%u, rotation error %.1f deg, direction error %.1f deg, view share %.2f\n",
                   c.event.query.agent(), c.event.candidate.agent(), c.rotation_error_deg, c.direction_error_deg,
                   c.view_share);

@@ -23,7 +23,8 @@ struct SceneResult {
   std::string error;                  ///< the scene could not be replayed
 };
 
-std::string SceneBlock(const SceneResult& r);
+/// `events`: also one line per fusion and loop (its ground-truth check and the server's detail).
+std::string SceneBlock(const SceneResult& r, bool events = false);
 nlohmann::json SceneJson(const SceneResult& r);
 std::string Report(const std::vector<SceneResult>& results);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <numeric>
@@ -35,6 +36,24 @@ std::optional<int64_t> KeyframeStamp(const report::RunResult& r, KeyframeId kf) 
   return std::nullopt;
 }
 
+// Metres per VO unit around a stamp: the agent's VO keyframes within 3 s of it, aligned on
+// their own (the local scale a server map has before anything rescales it).
+std::optional<double> LocalVoScale(const report::AgentRunResult& a, int64_t stamp_ns) {
+  constexpr int64_t kWindowNs = 3'000'000'000;
+  for (const auto& [segment, t] : a.vo_segments) {
+    if (t.empty() || stamp_ns < t.front().stamp_ns || stamp_ns > t.back().stamp_ns) continue;
+    Trajectory near;
+    for (const StampedPose& p : t) {
+      if (std::llabs(p.stamp_ns - stamp_ns) <= kWindowNs) near.push_back(p);
+    }
+    EvalReport rep;
+    std::string error;
+    if (near.size() < 5 || !Evaluate({{a.name, a.ground_truth, near}}, EvalOptions{}, &rep, &error)) return std::nullopt;
+    return rep.agents[0].gt_from_est.scale();
+  }
+  return std::nullopt;
+}
+
 DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth, const report::RunResult& r,
                      const ServerEvent& e) {
   DetectionCheck c;
@@ -58,6 +77,8 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
   }
   const sim::ViewOverlap o = truth.Compare(truth.Sample(sim, gq, tq), truth.Sample(sim, gc, tc));
   c.view_share = std::min(o.share_a, o.share_b);
+  const auto scale_q = LocalVoScale(r.agents[qa], *qs), scale_c = LocalVoScale(r.agents[ca], *cs);
+  if (scale_q && scale_c) c.scale_error = e.query_from_candidate.scale() * *scale_q / *scale_c - 1.0;
   c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.view_share < 0.05;
   return c;
 }
@@ -101,6 +122,9 @@ MapScore ScoreMap(const MapSummary& m, const report::RunResult& r, const std::ve
   s.joint_ate_m = rep.joint.ate_m.rmse;
   double lo = 1e300, hi = 0.0;
   for (const AgentResult& a : rep.agents) {
+    s.own_ate_m.push_back(a.ate_m.rmse);
+    s.joint_ate_per_agent_m.push_back(a.ate_joint_m.rmse);
+    s.agent_scale.push_back(a.gt_from_est.scale());
     lo = std::min(lo, a.gt_from_est.scale());
     hi = std::max(hi, a.gt_from_est.scale());
   }

@@ -6,6 +6,7 @@
 // by tests that check one scene.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,10 @@ struct DetectionCheck {
   double rotation_error_deg = 0.0;
   double direction_error_deg = 0.0;  ///< of the translation, when the keyframes are >= 0.3 m apart
   double view_share = 0.0;           ///< ground-truth co-visibility of the two keyframes (min share)
+  /// The similarity's scale against the ratio of the two agents' VO scales around the two
+  /// keyframes (est / true - 1; NaN where a VO segment is too short). Exact for maps that no
+  /// earlier fusion or loop rescaled, an indication otherwise.
+  double scale_error = std::numeric_limits<double>::quiet_NaN();
   bool wrong = false;                ///< rotation > 10 deg, direction > 30 deg, or nothing in common
 };
 
@@ -38,6 +43,9 @@ struct MapScore {
   double joint_ate_m = -1.0;         ///< all its keyframes, one Sim(3)
   double mean_standalone_ate_m = -1.0;  ///< its agents' own VO, mean of RMSEs
   double scale_spread = 0.0;         ///< max / min of the agents' own alignment scales, minus 1
+  /// Per agent in `agents`: ATE under its own alignment, under the map's joint one, and the
+  /// scale of its own alignment (metres per map unit).
+  std::vector<double> own_ate_m, joint_ate_per_agent_m, agent_scale;
 };
 
 struct AgentScore {
