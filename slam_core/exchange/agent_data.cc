@@ -109,4 +109,20 @@ std::string ValidateMapPointPositionUpdate(const MapPointPositionUpdate& u, Agen
   return "";
 }
 
+size_t ApproxBatchBytes(const AgentBatch& batch) {
+  size_t bytes = sizeof(AgentBatch);
+  for (const KeyframeData& k : batch.keyframes) {
+    bytes += sizeof(KeyframeData) + k.point_links.size() * sizeof(k.point_links[0]);
+    // Features are shared (a resend may point at the same ones); counted anyway, as a
+    // hostile agent's would not be shared.
+    if (k.features) bytes += k.features->keypoints.size() * (sizeof(Keypoint) + sizeof(OrbDescriptor));
+  }
+  for (const MapPointData& m : batch.map_points) {
+    bytes += sizeof(MapPointData) + m.observations.size() * sizeof(m.observations[0]);
+  }
+  bytes += batch.keyframe_updates.size() * sizeof(KeyframePoseUpdate);
+  bytes += batch.map_point_updates.size() * sizeof(MapPointPositionUpdate);
+  return bytes;
+}
+
 }  // namespace ccm

@@ -96,6 +96,10 @@ struct AgentBatch {
   }
 };
 
+/// What a batch holds in memory, approximately (keypoints, descriptors, links, points,
+/// updates): what a receiver's queue bound counts.
+size_t ApproxBatchBytes(const AgentBatch& batch);
+
 /// Limits a receiver enforces before data reaches the map (hostile or corrupted input).
 struct AgentDataLimits {
   size_t max_keypoints = 4000;

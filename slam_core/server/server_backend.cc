@@ -92,7 +92,7 @@ int ServerBackend::Submit(AgentBatch batch) {
   std::function<void(AgentId)> callback;
   // queue_mutex_ and stats_mutex_ are both leaves: a refusal is decided under the first and
   // counted under the second, never both held.
-  enum class Refused { kNo, kAgent, kQueueFull, kSegments } refused = Refused::kNo;
+  enum class Refused { kNo, kAgent, kQueueFull, kQueueBytes, kSegments } refused = Refused::kNo;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     is_new = !queues_.count(agent);
@@ -106,13 +106,20 @@ int ServerBackend::Submit(AgentBatch batch) {
       for (const uint64_t s : SegmentsOf(batch)) {
         if (!q.segments.count(s)) fresh.insert(s);
       }
+      const size_t bytes = ApproxBatchBytes(batch);
       if (static_cast<int>(q.batches.size()) >= options_.max_queued_batches_per_agent) {
         refused = Refused::kQueueFull;
+      } else if (!q.batches.empty() && q.bytes + bytes > options_.max_queued_bytes_per_agent) {
+        refused = Refused::kQueueBytes;
       } else if (static_cast<int>(q.segments.size() + fresh.size()) > options_.max_segments_per_agent) {
         refused = Refused::kSegments;
       } else {
         q.segments.insert(fresh.begin(), fresh.end());
-        if (!batch.empty()) q.batches.push_back(std::move(batch));
+        if (!batch.empty()) {
+          q.batches.push_back(std::move(batch));
+          q.batch_bytes.push_back(bytes);
+          q.bytes += bytes;
+        }
         callback = is_new ? on_new_agent_ : nullptr;
       }
     }
@@ -127,7 +134,12 @@ int ServerBackend::Submit(AgentBatch batch) {
       c.last_rejection = "more than max_segments_per_agent (" + std::to_string(options_.max_segments_per_agent) +
                          ") map segments";
     } else {
-      ++stats_.agents[agent].batches_dropped;
+      AgentCounters& c = stats_.agents[agent];
+      ++c.batches_dropped;
+      if (refused == Refused::kQueueBytes) {
+        c.last_rejection = "queue over max_queued_bytes_per_agent (" +
+                           std::to_string(options_.max_queued_bytes_per_agent >> 20) + " MiB)";
+      }
     }
     return -1;
   }
@@ -155,6 +167,8 @@ bool ServerBackend::RunHandlerOnce(AgentId agent, std::chrono::milliseconds time
     AgentQueue& q = queues_.at(agent);
     batch = std::move(q.batches.front());
     q.batches.pop_front();
+    q.bytes -= q.batch_bytes.front();
+    q.batch_bytes.pop_front();
     q.busy = true;
     reg = q.registration.get();
   }
@@ -531,7 +545,10 @@ QueueDepths ServerBackend::queue_depths() const {
   QueueDepths d;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
-    for (const auto& [a, q] : queues_) d.agent_batches[a] = q.batches.size() + (q.busy ? 1 : 0);
+    for (const auto& [a, q] : queues_) {
+      d.agent_batches[a] = q.batches.size() + (q.busy ? 1 : 0);
+      d.agent_bytes[a] = q.bytes;
+    }
   }
   {
     std::lock_guard<std::mutex> lock(pr_mutex_);

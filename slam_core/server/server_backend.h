@@ -71,7 +71,7 @@ struct AgentCounters {
   int64_t updates_applied = 0;
   int64_t updates_ignored = 0;
   int64_t rejected = 0;              ///< items that failed validation
-  int64_t batches_dropped = 0;       ///< queue full (max_queued_batches_per_agent)
+  int64_t batches_dropped = 0;       ///< queue full (max_queued_batches_per_agent / _bytes_per_agent)
   int64_t segments_refused = 0;      ///< batches of a segment beyond max_segments_per_agent
   std::string last_rejection;
   std::vector<double> keyframe_ms;   ///< registration + mapping per keyframe (first 20000)
@@ -92,6 +92,7 @@ struct BackendStats {
 /// Work waiting in each stage (status displays, benchmarks).
 struct QueueDepths {
   std::map<AgentId, size_t> agent_batches;
+  std::map<AgentId, size_t> agent_bytes;  ///< ApproxBatchBytes of the batches waiting
   size_t place_recognition = 0;
   size_t global_ba_pending = 0;
   bool global_ba_running = false;
@@ -180,6 +181,8 @@ class ServerBackend {
  private:
   struct AgentQueue {
     std::deque<AgentBatch> batches;
+    std::deque<size_t> batch_bytes;  ///< ApproxBatchBytes of each queued batch
+    size_t bytes = 0;                ///< their sum (max_queued_bytes_per_agent)
     std::set<uint64_t> segments;  ///< segment ids submitted (max_segments_per_agent)
     bool busy = false;
     std::unique_ptr<AgentRegistration> registration;

@@ -123,6 +123,10 @@ struct ServerOptions {
   /// keyframes the server never acknowledges; updates are superseded anyway), so one slow
   /// or flooding agent cannot grow the server's memory.
   int max_queued_batches_per_agent = 256;
+  /// The same in memory (ApproxBatchBytes): 256 batches of a few updates are small, 256 of
+  /// full keyframes (~50 kB each, more with thousands of keypoints) are not. A batch that
+  /// would take a non-empty queue beyond this is dropped and counted like a full queue.
+  size_t max_queued_bytes_per_agent = size_t{64} << 20;
   /// Map segments one agent may open in this server's life (each new segment id on the wire
   /// is a new server map until it fuses). An agent opens one per start and per tracking loss
   /// for good; a batch for one more is refused and counted (segments_refused), so a faulty or

@@ -464,6 +464,31 @@ TEST(Submit, AFullAgentQueueDropsAndCountsInsteadOfGrowing) {
   EXPECT_GT(backend.AgentTrajectory(1).size(), 0u) << "what was queued is processed";
 }
 
+TEST(Submit, AQueueIsBoundedInBytesAsWellAsInBatches) {
+  // Few batches of many full keyframes: within the batch count, beyond the memory bound.
+  const testing::VoStream& s = Hall3Stream();
+  size_t total = 0;
+  for (const AgentBatch& b : s.batches) total += ApproxBatchBytes(b);
+  ASSERT_GT(total, size_t{2} << 20) << "hall3's 10 s should be a few MB of keyframes";
+  ServerOptions o;
+  o.max_queued_bytes_per_agent = size_t{1} << 20;
+  ServerBackend backend(SimVocabulary(), o);
+  int refused = 0;
+  for (const AgentBatch& b : s.batches) refused += backend.Submit(b) < 0;  // nobody processes
+  const QueueDepths d = backend.queue_depths();
+  std::printf("  %zu batches, %.1f MB; queued %zu batches, %.2f MB; %d refused\n", s.batches.size(), total / 1e6,
+              d.agent_batches.at(1), d.agent_bytes.at(1) / 1e6, refused);
+  EXPECT_GT(refused, 0);
+  EXPECT_LE(d.agent_bytes.at(1), o.max_queued_bytes_per_agent);
+  EXPECT_EQ(d.agent_batches.at(1) + refused, s.batches.size());
+  EXPECT_EQ(backend.stats().agents.at(1).batches_dropped, refused);
+  EXPECT_NE(backend.stats().agents.at(1).last_rejection.find("max_queued_bytes_per_agent"), std::string::npos);
+  backend.ProcessAllQueued();
+  EXPECT_EQ(backend.queue_depths().agent_bytes.at(1), 0u) << "the count follows the queue down";
+  // Processed, the queue takes batches again.
+  EXPECT_EQ(backend.Submit(s.batches.back()), 0);
+}
+
 TEST(Submit, AnAgentCannotOpenMapSegmentsWithoutEnd) {
   // A batch whose points name one new segment each (a faulty or hostile agent) would make
   // one server map per segment; the budget refuses the batch that goes beyond it, whole.
