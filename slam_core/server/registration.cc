@@ -175,7 +175,10 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId con
   opt::OptimizationSummary s = opt::OptimizePose(kf->camera(), obs, &pose);
   // Most links must agree: a placement far off (or wrong links) would converge to
   // something wrong, and its outliers must not be erased then.
-  bool ok = s.usable && s.num_inliers >= options_.refine_min_inliers && 2 * s.num_inliers >= static_cast<int>(obs.size());
+  const auto most_agree = [&](const opt::OptimizationSummary& r, size_t links) {
+    return r.usable && r.num_inliers >= options_.refine_min_inliers && 2 * r.num_inliers >= static_cast<int>(links);
+  };
+  bool ok = most_agree(s, obs.size());
   const auto before = continuity.valid() ? map.keyframe(continuity) : nullptr;
   if (!ok && before) {
     // Most links disagree with every pose. Seen when an agent is back where it was and
@@ -194,7 +197,7 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId con
     }
     SE3 continued = kf->world_from_cam();
     const opt::OptimizationSummary c = opt::OptimizePose(kf->camera(), tracked, &continued);
-    if (c.usable && c.num_inliers >= options_.refine_min_inliers && 2 * c.num_inliers >= static_cast<int>(tracked.size())) {
+    if (most_agree(c, tracked.size())) {
       pose = continued;
       s.inlier.assign(obs.size(), false);
       s.num_inliers = opt::ClassifyObservations(kf->camera(), obs, pose.inverse(), opt::kChi2Mono2Dof, &s.inlier);

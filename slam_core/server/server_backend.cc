@@ -117,7 +117,6 @@ int ServerBackend::Submit(AgentBatch batch) {
         q.segments.insert(fresh.begin(), fresh.end());
         if (!batch.empty()) {
           q.batches.push_back(std::move(batch));
-          q.batch_bytes.push_back(bytes);
           q.bytes += bytes;
         }
         callback = is_new ? on_new_agent_ : nullptr;
@@ -167,8 +166,7 @@ bool ServerBackend::RunHandlerOnce(AgentId agent, std::chrono::milliseconds time
     AgentQueue& q = queues_.at(agent);
     batch = std::move(q.batches.front());
     q.batches.pop_front();
-    q.bytes -= q.batch_bytes.front();
-    q.batch_bytes.pop_front();
+    q.bytes -= ApproxBatchBytes(batch);
     q.busy = true;
     reg = q.registration.get();
   }

@@ -181,8 +181,7 @@ class ServerBackend {
  private:
   struct AgentQueue {
     std::deque<AgentBatch> batches;
-    std::deque<size_t> batch_bytes;  ///< ApproxBatchBytes of each queued batch
-    size_t bytes = 0;                ///< their sum (max_queued_bytes_per_agent)
+    size_t bytes = 0;  ///< ApproxBatchBytes of the queued batches (max_queued_bytes_per_agent)
     std::set<uint64_t> segments;  ///< segment ids submitted (max_segments_per_agent)
     bool busy = false;
     std::unique_ptr<AgentRegistration> registration;
