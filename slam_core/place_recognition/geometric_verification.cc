@@ -152,7 +152,9 @@ std::string VerificationOptions::Validate() const {
     s.ransac.focal_px = 1.0;  // set per call from the cameras
     p = s.Validate();
   }
-  if (p.empty() && (min_bow_matches < 3 || min_inliers < 3)) p = "min_bow_matches/min_inliers must be >= 3";
+  if (p.empty() && (min_bow_matches < 3 || min_inliers < 3 || min_seed_inliers < 3)) {
+    p = "min_bow_matches/min_inliers/min_seed_inliers must be >= 3";
+  }
   if (p.empty() && refine_rounds < 0) p = "refine_rounds must be >= 0";
   if (p.empty() && optimize) p = optimization.Validate();
   return p;
@@ -227,9 +229,11 @@ VerificationResult VerifyPlace(const VerificationView& candidate, const Verifica
     return r;
   }
   r.stage = VerificationStage::kRansac;
-  const solvers::Sim3Result sim3 = RunSim3(candidate, query, bow, options.sim3);
+  solvers::Sim3Options seed_options = options.sim3;
+  seed_options.min_inliers = std::min(seed_options.min_inliers, options.min_seed_inliers);
+  const solvers::Sim3Result sim3 = RunSim3(candidate, query, bow, seed_options);
   r.ransac_inliers = sim3.num_inliers;
-  if (!sim3.ok() || sim3.num_inliers < options.min_inliers) {
+  if (!sim3.ok() || sim3.num_inliers < options.min_seed_inliers) {
     r.reason = "Sim(3) RANSAC failed: " + std::string(solvers::SolverStatusName(sim3.status)) + ", " +
                std::to_string(sim3.num_inliers) + " inliers";
     return r;

@@ -107,9 +107,20 @@ std::optional<PlaceDetection> PlaceMatcher::Process(KeyframeId kf_id) {
   if (!found && stack_->num_maps() > 1) {
     QueryFilter f;
     f.exclude_maps = {q.map};
+    copt.min_common_ratio = options_.fusion_min_common_ratio;
     const auto cands = database_.DetectCandidates(q.bow, f, copt, covis);
     Bump(&PlaceMatcherStats::match_candidates, static_cast<int64_t>(cands.size()));
+    FusionQueryTrace trace;
+    if (options_.fusion_trace) {
+      trace.query = q.id;
+      trace.min_score = copt.min_score;
+      trace.scored = database_.Query(q.bow, f);
+      for (const PlaceCandidate& c : cands) trace.candidates.push_back(c.best.keyframe);
+      trace_ = &trace;
+    }
     found = TryCandidates(q, cands, PlaceDetection::Kind::kFusion);
+    if (trace_) options_.fusion_trace(trace);
+    trace_ = nullptr;
   }
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -147,6 +158,9 @@ std::optional<PlaceMatcher::Pending> PlaceMatcher::Verify(const View& q, const V
   if (kind == PlaceDetection::Kind::kFusion) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.fusion_stopped_at[static_cast<int>(v.stage)];
+  }
+  if (trace_ && kind == PlaceDetection::Kind::kFusion) {
+    trace_->verifications.push_back({q.id, c.id, v.stage, v.bow_matches, v.ransac_inliers, v.total_matches});
   }
   if (!v.accepted) return std::nullopt;
   Bump(&PlaceMatcherStats::verified);

@@ -50,6 +50,23 @@ struct PlaceMatcherStats {
   double total_query_ms = 0.0;  ///< database query + verification, summed over queries
 };
 
+/// One map-matching query as place recognition saw it (PlaceMatchingOptions::fusion_trace):
+/// every keyframe of another map that shares words with the query, the candidates picked from
+/// them, and where each verification stopped. A benchmark compares this with ground truth to
+/// tell whether an overlap was missed by retrieval or by verification.
+struct FusionQueryTrace {
+  KeyframeId query;
+  double min_score = 0.0;             ///< the query's bar (its least similar covisible neighbour)
+  std::vector<QueryResult> scored;    ///< all keyframes of other maps sharing words
+  std::vector<KeyframeId> candidates; ///< picked for verification, best group first
+  struct Verification {
+    KeyframeId query, candidate;      ///< query: the query or one of its neighbours (confirmation)
+    VerificationStage stage = VerificationStage::kInput;
+    int bow_matches = 0, ransac_inliers = 0, total_matches = 0;
+  };
+  std::vector<Verification> verifications;
+};
+
 class PlaceMatcher {
  public:
   PlaceMatcher(std::shared_ptr<const Vocabulary> vocabulary, const PlaceMatchingOptions& options, MapStack* stack);
@@ -124,6 +141,7 @@ class PlaceMatcher {
   std::map<std::tuple<int, MapId, MapId>, Pending> pending_;
   std::map<AgentId, int64_t> agent_queries_;
   std::map<MapId, int64_t> keyframes_since_loop_;
+  FusionQueryTrace* trace_ = nullptr;  ///< set during a traced map-matching query (PR thread only)
   /// Direct index per keyframe as one node per keypoint (4 bytes each): verification views
   /// of candidates and their windows are built from these instead of a vocabulary descent.
   mutable std::mutex nodes_mutex_;  // leaf; guards nodes_ (erased from other stages)

@@ -35,6 +35,9 @@ std::string PlaceMatchingOptions::Validate() const {
   if (auto e = verification.Validate(); !e.empty()) return "place.verification: " + e;
   if (vocabulary_levels_up < -1) return "place.vocabulary_levels_up must be >= 0, or -1 (automatic)";
   if (candidate_window < 0) return "place.candidate_window must be >= 0";
+  if (!(fusion_min_common_ratio >= 0.0 && fusion_min_common_ratio <= 1.0)) {
+    return "place.fusion_min_common_ratio must be in [0, 1]";
+  }
   if (loop_min_map_keyframes < 2) return "place.loop_min_map_keyframes must be >= 2";
   if (consistency_window_keyframes < 1) return "place.consistency_window_keyframes must be >= 1";
   if (!(consistency_max_angle_deg > 0.0)) return "place.consistency_max_angle_deg must be > 0";

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "slam_core/map/map.h"
@@ -10,6 +11,8 @@
 #include "slam_core/place_recognition/keyframe_database.h"
 
 namespace ccm {
+
+struct FusionQueryTrace;  // place_matcher.h
 
 struct RegistrationOptions {
   /// Forster et al.: lambda_k = lambda_{k-1} + kappa (lambda_hat - lambda_{k-1}).
@@ -68,6 +71,15 @@ struct PlaceMatchingOptions {
   /// matched against the whole place, not one view of it. 0: the candidate keyframe alone
   /// (CCM-SLAM). Loop candidates are always verified alone.
   int candidate_window = 4;
+  /// Map matching keeps keyframes of other maps that share at least this share of the
+  /// words the best of them shares with the query (ORB-SLAM's 0.8 is for loops: the same
+  /// camera path). Another agent sees a place from another height and angle and shares
+  /// fewer words: on unseen scenes the right keyframe scored among the best few but shared
+  /// 55-75 % of the maximum, so 0.8 dropped it before verification (docs/server.md).
+  double fusion_min_common_ratio = 0.6;
+  /// Diagnostics (bench_fusion --recall): called on the place-recognition thread after each
+  /// map-matching query with what it scored, picked and verified. Empty in production.
+  std::function<void(const FusionQueryTrace&)> fusion_trace;
   /// A map needs this many keyframes before loops inside it are searched.
   int loop_min_map_keyframes = 12;
   /// Two verified detections from different query keyframes must agree (temporal and

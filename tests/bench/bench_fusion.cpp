@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "slam_core/place_recognition/vocabulary_io.h"
+#include "tests/bench/fusion_recall.h"
 #include "tests/bench/fusion_report.h"
 #include "tests/bench/fusion_scoring.h"
 #include "tools/replay/batch_recording.h"
@@ -57,7 +58,7 @@ std::string RecordingPath(const std::string& dir, std::uint64_t seed) {
 
 SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& gen,
                      const ccm::replay::ReplayOptions& base, const std::shared_ptr<const ccm::Vocabulary>& vocab,
-                     const std::string& record_dir, const std::string& play_dir) {
+                     const std::string& record_dir, const std::string& play_dir, bool recall) {
   const auto t0 = std::chrono::steady_clock::now();
   SceneResult out;
   out.scene = ccm::sim::GenerateScene(seed, gen);
@@ -70,7 +71,18 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
     return out;
   }
   const auto truth = ccm::sim::OverlapTruth::Compute(*sim);
-  ccm::ServerBackend backend(vocab, base.BackendOptions());
+  // --recall: every map-matching query traced, every keyframe's stamp kept.
+  std::mutex trace_mutex;  // leaf: traces (the place-recognition thread appends)
+  std::vector<ccm::FusionQueryTrace> traces;
+  std::map<ccm::KeyframeId, int64_t> stamps;
+  ccm::ServerOptions server_options = base.BackendOptions();
+  if (recall) {
+    server_options.place.fusion_trace = [&](const ccm::FusionQueryTrace& t) {
+      std::lock_guard<std::mutex> lock(trace_mutex);
+      traces.push_back(t);
+    };
+  }
+  ccm::ServerBackend backend(vocab, server_options);
   ccm::report::RunResult result;
   if (!play_dir.empty()) {
     // The agents' batches as recorded: only the server runs again (server-side tuning).
@@ -80,6 +92,9 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
       return out;
     }
     result = ccm::replay::PlayRecording(*recording, &backend, ccm::replay::PlayOptions{});
+    for (const ccm::AgentBatch& b : recording->batches) {
+      for (const ccm::KeyframeData& k : b.keyframes) stamps[k.id] = k.stamp_ns;
+    }
   } else {
     std::vector<ccm::replay::ReplayAgentInput> inputs;
     for (int a = 0; a < sim->num_agents(); ++a) {
@@ -88,7 +103,10 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
     }
     ccm::replay::ReplayOptions options = base;
     ccm::replay::Recording recording;
-    if (!record_dir.empty()) options.on_batch = [&](const ccm::AgentBatch& b) { recording.batches.push_back(b); };
+    options.on_batch = [&](const ccm::AgentBatch& b) {
+      for (const ccm::KeyframeData& k : b.keyframes) stamps[k.id] = k.stamp_ns;
+      if (!record_dir.empty()) recording.batches.push_back(b);
+    };
     result = ccm::replay::RunReplay(std::move(inputs), options, &backend);
     if (!record_dir.empty()) {
       ccm::replay::RecordAgents(result, &recording);
@@ -100,6 +118,13 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
     return out;
   }
   out.score = ccm::bench::ScoreScene(*sim, truth, result);
+  if (recall) {
+    std::vector<ccm::AgentId> ids;
+    for (const auto& a : result.agents) ids.push_back(a.id);
+    std::lock_guard<std::mutex> lock(trace_mutex);
+    out.missed = ccm::bench::DiagnoseMissedPairs(*sim, truth, out.score, traces, stamps, ids,
+                                                 server_options.place.fusion_min_common_ratio);
+  }
   out.frames = 0;
   for (const auto& a : result.agents) out.frames += a.frames;
   out.place_recognition_ms = result.stats.place.queries
@@ -118,7 +143,7 @@ int main(int argc, char** argv) {
   CLI::App app{"bench_fusion: map fusion, loops and VO over generated multi-agent scenes, scored on ground truth"};
   std::string seeds_text, set, out_dir, record_dir, play_dir, vocab_path = CCM_DEFAULT_VOCABULARY;
   int jobs = 1;
-  bool no_sharing = false, events = false;
+  bool no_sharing = false, events = false, recall = false;
   ccm::sim::SceneGeneratorOptions gen;
   ccm::replay::ReplayOptions replay;
   app.add_option("--seeds", seeds_text, "seeds, e.g. 1-20 or 3,7,1001-1005");
@@ -131,6 +156,17 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
   app.add_flag("--events", events, "print every fusion and loop with its ground-truth check");
+  app.add_flag("--recall", recall,
+               "for each overlapping pair that never fused: were the right keyframes retrieved, and where did "
+               "their verification stop (ground truth)");
+  app.add_option("--fusion-common-ratio", replay.server.place.fusion_min_common_ratio,
+                 "place recognition: map-matching keyframes must share this share of the best one's words")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--seed-inliers", replay.server.place.verification.min_seed_inliers,
+                 "place recognition: inliers the first Sim(3) RANSAC needs (the refined one needs 20)")
+      ->capture_default_str()
+      ->check(CLI::Range(3, 100));
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   app.add_option("--candidate-window", replay.server.place.candidate_window,
@@ -177,7 +213,7 @@ int main(int argc, char** argv) {
   for (int j = 0; j < jobs; ++j) {
     workers.emplace_back([&] {
       for (size_t i; (i = next++) < seeds.size();) {
-        results[i] = RunScene(seeds[i], gen, replay, vocab, record_dir, play_dir);
+        results[i] = RunScene(seeds[i], gen, replay, vocab, record_dir, play_dir, recall);
         std::lock_guard<std::mutex> lock(print_mutex);
         std::fputs(ccm::bench::SceneBlock(results[i], events).c_str(), stdout);
         std::fflush(stdout);

@@ -67,6 +67,7 @@ std::string SceneBlock(const SceneResult& r, bool events) {
     }
   }
   s += Format("; inconsistent %lld\n", static_cast<long long>(r.place.inconsistent));
+  for (const MissedPairDiagnosis& d : r.missed) s += FormatDiagnosis(d);
   if (events) {
     for (const DetectionCheck& c : sc.fusions) s += EventLine("fusion", c);
     for (const DetectionCheck& c : sc.loops) s += EventLine("loop", c);

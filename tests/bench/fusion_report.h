@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/bench/fusion_recall.h"
 #include "tests/bench/fusion_scoring.h"
 #include "tests/sim/scene_generator.h"
 
@@ -20,6 +21,7 @@ struct SceneResult {
   double wall_s = 0.0;
   double place_recognition_ms = 0.0;  ///< mean per query (database + verification)
   PlaceMatcherStats place;            ///< the place-recognition funnel (where candidates stopped)
+  std::vector<MissedPairDiagnosis> missed;  ///< --recall: pairs that never fused, diagnosed
   std::string error;                  ///< the scene could not be replayed
 };
 

@@ -2,8 +2,11 @@
 // ServerScenario.Hall3 (ctest fixture), played into fresh back-ends.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
 
 #include "tests/slam_core/server/server_test_util.h"
 #include "tools/replay/batch_recording.h"
@@ -87,6 +90,49 @@ TEST(ServerRecording, KeyframeThinningKeepsAccuracy) {
   EXPECT_LE(ev_theta.collaborative_ate_m.rmse, 1.10 * ev_all.collaborative_ate_m.rmse);
   EXPECT_GT(ev_default.collaborative_ate_m.count, ev_all.collaborative_ate_m.count * 95 / 100)
       << "removed keyframes stay in the trajectories through their anchors";
+}
+
+TEST(ServerRecording, FusionQueryTraceAccountsForEveryCandidateAndFusion) {
+  // bench_fusion --recall diagnoses missed overlaps from this trace: it must hold every
+  // candidate the matcher counted, every verification with its stage, and the verification
+  // behind each fusion.
+  ASSERT_FALSE(Hall3Recording().batches.empty());
+  std::mutex mutex;  // leaf
+  std::vector<FusionQueryTrace> traces;
+  ServerOptions o;
+  o.place.fusion_trace = [&](const FusionQueryTrace& t) {
+    std::lock_guard<std::mutex> lock(mutex);
+    traces.push_back(t);
+  };
+  report::RunResult r;
+  Play(o, replay::PlayOptions{}, &r);
+  ASSERT_GE(r.stats.fusions, 2) << "hall3's three maps fuse";
+  int64_t candidates = 0;
+  std::array<int64_t, kNumVerificationStages> stopped_at{};
+  for (const FusionQueryTrace& t : traces) {
+    candidates += static_cast<int64_t>(t.candidates.size());
+    for (const KeyframeId c : t.candidates) {
+      const bool scored = std::any_of(t.scored.begin(), t.scored.end(), [&](const QueryResult& q) { return q.keyframe == c; });
+      EXPECT_TRUE(scored) << "candidates come from the scored keyframes";
+    }
+    for (const auto& v : t.verifications) ++stopped_at[static_cast<int>(v.stage)];
+  }
+  std::printf("  %zu map-matching queries traced, %lld candidates, %lld accepted verifications\n", traces.size(),
+              static_cast<long long>(candidates), static_cast<long long>(stopped_at[kNumVerificationStages - 1]));
+  EXPECT_EQ(candidates, r.stats.place.match_candidates);
+  for (int s = 0; s < kNumVerificationStages; ++s) {
+    EXPECT_EQ(stopped_at[s], r.stats.place.fusion_stopped_at[s]) << VerificationStageName(static_cast<VerificationStage>(s));
+  }
+  for (const ServerEvent& e : r.events) {
+    if (e.kind != ServerEvent::Kind::kFusion) continue;
+    bool found = false;
+    for (const FusionQueryTrace& t : traces) {
+      for (const auto& v : t.verifications) {
+        found = found || (v.query == e.query && v.candidate == e.candidate && v.stage == VerificationStage::kAccepted);
+      }
+    }
+    EXPECT_TRUE(found) << "fusion of " << e.query.counter() << " with " << e.candidate.counter() << " not traced";
+  }
 }
 
 TEST(ServerRecording, SavedHalfWayTheReloadedStackFusesAndClosesLoopsOn) {
