@@ -9,8 +9,8 @@
 #   4. build ccm_agent (aarch64)
 #   5. OUT_DIR/packages: cpack -G DEB, ccm-common and ccm-agent for arm64, dependencies from
 #      dpkg-shlibdeps against the sysroot's arm64 packages
-#   6. checks: the packages are arm64, install into the sysroot's dpkg database without missing
-#      dependencies (dpkg --root --dry-run), and the agent starts under qemu (--help)
+#   6. checks: the packages are arm64, `dpkg -i` installs them (dependencies checked) against the
+#      sysroot's arm64 package database into a scratch root, the agent starts under qemu (--help)
 #
 #   deploy/cross-build-arm64.sh OUT_DIR        (JOBS=N compile jobs, default: nproc)
 # Then deploy/check-arm64-agent.sh OUT_DIR runs the arm64 agent on a flight (ctest -L cross).
@@ -82,11 +82,22 @@ dpkg-deb --field "$PKGS"/ccm-agent_*_arm64.deb Depends | grep -q "libopencv-core
   || die "ccm-agent has no dpkg-shlibdeps dependencies (log: $OUT/cpack.log)"
 
 say "6. checks"
-# dpkg resolves the packages' Depends against the arm64 packages registered in the sysroot
-# (Debian's own, unpacked by make-arm64-sysroot.sh); --dry-run changes nothing.
-dpkg --root="$SYSROOT" --force-not-root --dry-run -i "${debs[@]}" >"$OUT/install-check.log" 2>&1 \
-  || { cat "$OUT/install-check.log"; die "the packages do not install into the arm64 root"; }
-say "   dpkg --root=$SYSROOT --dry-run -i: dependencies satisfied"
+# A real `dpkg -i` (unpack and configure, dependencies checked) of both packages into a scratch
+# root, against a copy of the sysroot's database (Debian's arm64 packages that
+# make-arm64-sysroot.sh unpacked): a missing or unsatisfiable dependency fails it.
+# (`dpkg --root --dry-run -i` would not do: it stops before the dependency check.)
+CHK="$OUT/install-check"
+rm -rf "$CHK"
+mkdir -p "$CHK/root"
+cp -a "$SYSROOT/var/lib/dpkg" "$CHK/admin"
+dpkg --force-not-root --instdir="$CHK/root" --admindir="$CHK/admin" -i "${debs[@]}" >"$OUT/install-check.log" 2>&1 \
+  || { cat "$OUT/install-check.log"; die "the packages do not install into the arm64 root (log: $OUT/install-check.log)"; }
+for p in ccm-common ccm-agent; do
+  dpkg-query --admindir="$CHK/admin" -W -f='${Status}' "$p:arm64" | grep -q "install ok installed" \
+    || die "$p is not installed after dpkg -i (log: $OUT/install-check.log)"
+done
+[ -x "$CHK/root/usr/bin/ccm_agent" ] || die "dpkg -i did not install /usr/bin/ccm_agent"
+say "   dpkg -i into a scratch root with the sysroot's arm64 package database: both installed, dependencies satisfied"
 if command -v qemu-aarch64-static >/dev/null; then
   qemu-aarch64-static -L "$SYSROOT" "$AGENT" --help >/dev/null || die "the arm64 ccm_agent does not run under qemu"
   say "   qemu-aarch64-static -L sysroot ccm_agent --help: runs"
