@@ -139,6 +139,7 @@ say "6. CMake package files: absolute /usr paths inside the sysroot"
 # of Debian's multiarch configs (_realOrig "/usr/lib/...") then resolves inside it as well.
 n=0
 while IFS= read -r f; do
+  # shellcheck disable=SC2016  # ${CMAKE_SYSROOT} is for CMake to expand, not the shell
   sed -i -e 's#\([";( ]\)/usr/\(lib\|include\|share\)/#\1${CMAKE_SYSROOT}/usr/\2/#g' \
     -e 's#"/usr"#"${CMAKE_SYSROOT}/usr"#g' "$f"
   n=$((n + 1))
