@@ -88,4 +88,19 @@ file(WRITE ${CMAKE_BINARY_DIR}/deb-control/common/conffiles "/etc/ccm-slam-dds/w
 file(WRITE ${CMAKE_BINARY_DIR}/deb-control/server/conffiles "/etc/ccm-slam-dds/server.yaml\n")
 set(CPACK_DEBIAN_COMMON_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/deb-control/common/conffiles)
 set(CPACK_DEBIAN_SERVER_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/deb-control/server/conffiles)
+if(CMAKE_CROSSCOMPILING AND CCM_ARM64_SYSROOT)
+  # arm64 cross build against a sysroot (cmake/toolchain-aarch64-sysroot.cmake): dpkg-shlibdeps
+  # looks for the libraries in the sysroot (/lib first: merged /usr, libc6 lists /lib/...), reads
+  # their packages' symbols/shlibs from the sysroot's dpkg database, with arm64's objdump, and
+  # asks dpkg-query through deploy/cross-shlibdeps/dpkg-query (which strips the sysroot prefix).
+  # The environment is set inside cpack, so a plain `cpack -G DEB` in the build tree works.
+  set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS
+      ${CCM_ARM64_SYSROOT}/lib/aarch64-linux-gnu ${CCM_ARM64_SYSROOT}/usr/lib/aarch64-linux-gnu)
+  file(WRITE ${CMAKE_BINARY_DIR}/cpack-cross-env.cmake
+       "set(ENV{DEB_HOST_ARCH} arm64)\n"
+       "set(ENV{DPKG_ADMINDIR} \"${CCM_ARM64_SYSROOT}/var/lib/dpkg\")\n"
+       "set(ENV{CCM_ARM64_SYSROOT} \"${CCM_ARM64_SYSROOT}\")\n"
+       "set(ENV{PATH} \"${PROJECT_SOURCE_DIR}/deploy/cross-shlibdeps:\$ENV{PATH}\")\n")
+  set(CPACK_PROJECT_CONFIG_FILE ${CMAKE_BINARY_DIR}/cpack-cross-env.cmake)
+endif()
 include(CPack)

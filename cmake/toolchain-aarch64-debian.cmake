@@ -8,6 +8,9 @@
 #   deploy/cross-configure-arm64.sh            (docs/deployment.md, "arm64 cross build")
 #
 # fastddsgen (Java) and the generated code are architecture-independent: the host's is used.
+# On Debian 12 the arm64 OpenCV, Ceres, glog and yaml-cpp -dev packages replace the amd64 ones,
+# so this only suits a host without them; the working cross build uses an arm64 sysroot
+# instead: cmake/toolchain-aarch64-sysroot.cmake, deploy/cross-build-arm64.sh.
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR aarch64)
 set(CCM_CROSS_TRIPLET aarch64-linux-gnu)

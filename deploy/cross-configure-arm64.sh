@@ -6,6 +6,8 @@
 #   sudo apt-get install g++-aarch64-linux-gnu $(deploy/cross-configure-arm64.sh --print-packages)
 #
 #   deploy/cross-configure-arm64.sh [--build] [--print-packages]   (BUILD_DIR: build-arm64)
+# On Debian 12 those arm64 -dev packages replace the amd64 ones (docs/deployment.md, "The arm64
+# build"); the cross build that works beside a native one is deploy/cross-build-arm64.sh.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build-arm64}"
