@@ -1,5 +1,7 @@
 #include "agent_runtime/agent_comm.h"
 
+#include "agent_runtime/cpu_usage.h"
+
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -159,6 +161,7 @@ void AgentComm::Run() {
     }
     stats_cv_.notify_all();
   }
+  cpu_seconds_ = ThreadCpuSeconds();
 }
 
 void AgentComm::PackChanges() {

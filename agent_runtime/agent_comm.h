@@ -62,6 +62,8 @@ class AgentComm {
   /// Stops the thread after one last publish cycle.
   void Stop();
   AgentCommStats Stats() const;
+  /// CPU seconds the comm thread used (packing, DDS writes, server data); valid after Stop().
+  double cpu_seconds() const { return cpu_seconds_; }
   /// The tracking thread reports its state for the status heartbeat (0 initializing,
   /// 1 tracking, 2 lost).
   void SetTrackingState(int state) { tracking_state_ = state; }
@@ -121,6 +123,7 @@ class AgentComm {
   std::atomic<bool> flush_requested_{false};  ///< WaitDrained: pack everything, ignore the delay
   std::atomic<bool> running_{false};
   std::thread thread_;
+  double cpu_seconds_ = 0.0;  ///< written by thread_ as it ends, read after the join
 };
 
 }  // namespace ccm::agent

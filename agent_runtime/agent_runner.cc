@@ -16,6 +16,7 @@
 #include "slam_core/io/trajectory_io.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "agent_runtime/agent_comm.h"
+#include "agent_runtime/cpu_usage.h"
 #include "slam_core/common/install_paths.h"
 #include "slam_core/vo/agent_vo.h"
 #ifdef CCM_AGENT_WITH_SIM
@@ -132,6 +133,8 @@ bool LoadAgentVocabulary(const RunOptions& o, std::shared_ptr<const Vocabulary>*
 // What the tracking loop leaves behind.
 struct Flight {
   int64_t frames = 0, tracked = 0;
+  double tracking_cpu_s = 0.0;  ///< the tracking thread inside TrackFrame
+  double input_cpu_s = 0.0;     ///< the same thread reading / decoding / rendering frames and pacing
   std::vector<KeyframePose> ground_truth;  ///< per frame, where the source has it
   Clock::time_point start;
 };
@@ -157,6 +160,7 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
   Pacer pacer(o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
   Flight f;
   f.start = Clock::now();
+  const double cpu_start = ThreadCpuSeconds();
   auto last_progress = f.start;
   TrackingResult last;
   bool road_hint_given = false;
@@ -165,7 +169,9 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
     if (!frame) break;
     pacer.Wait(frame->stamp_ns);
     if (frame->world_from_cam_gt) f.ground_truth.push_back({KeyframeId(), MapId(), frame->stamp_ns, *frame->world_from_cam_gt});
+    const double cpu_before = ThreadCpuSeconds();
     last = vo->TrackFrame(*frame);
+    f.tracking_cpu_s += ThreadCpuSeconds() - cpu_before;
     if (comm) comm->SetTrackingState(static_cast<int>(last.state));
     // Offline at full speed: let mapping finish each keyframe, as it would keep up in real
     // time; otherwise tracking races ahead on a map that lags behind (seen on KITTI).
@@ -189,6 +195,7 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
       last_progress = Clock::now();
     }
   }
+  f.input_cpu_s = ThreadCpuSeconds() - cpu_start - f.tracking_cpu_s;
   return f;
 }
 
@@ -224,6 +231,28 @@ nlohmann::json LinkSummary(const AgentComm& comm) {
           {"server_keyframes_received", c.server_keyframes_received},
           {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
           {"pack_ms_max", c.pack_ms_max}};
+}
+
+// CPU per frame by thread and peak RSS (issue 29's budget). "other" is the rest of the
+// process: Fast DDS's threads, set-up (vocabulary, camera) and the final drain. The mapping
+// thread's time covers the local BA run on it; the tracking thread's own mapping (if any) is
+// in "tracking".
+nlohmann::json Footprint(const Flight& f, double mapping_cpu_s, const AgentComm* comm) {
+  const double process_s = ProcessCpuSeconds();
+  const double comm_s = comm ? comm->cpu_seconds() : 0.0;
+  const double other_s = std::max(0.0, process_s - f.tracking_cpu_s - f.input_cpu_s - mapping_cpu_s - comm_s);
+  const double per_frame = f.frames ? 1000.0 / static_cast<double>(f.frames) : 0.0;
+  const nlohmann::json ms_per_frame = {{"tracking", f.tracking_cpu_s * per_frame},
+                                       {"mapping", mapping_cpu_s * per_frame},
+                                       {"comm", comm_s * per_frame},
+                                       {"input", f.input_cpu_s * per_frame},
+                                       {"other", other_s * per_frame},
+                                       {"total", process_s * per_frame}};
+  spdlog::info("CPU ms/frame: tracking {:.1f}, mapping {:.1f}, comm {:.1f}, input {:.1f}, other {:.1f}, total {:.1f}; "
+               "peak RSS {:.0f} MB",
+               f.tracking_cpu_s * per_frame, mapping_cpu_s * per_frame, comm_s * per_frame, f.input_cpu_s * per_frame,
+               other_s * per_frame, process_s * per_frame, PeakRssMb());
+  return {{"cpu_ms_per_frame", ms_per_frame}, {"peak_rss_mb", PeakRssMb()}};
 }
 
 // The summary line printed on stdout at the end (and its log lines).
@@ -314,8 +343,10 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
                camera->width(), camera->height(), CameraTypeName(camera->type()));
   // The local-mapping thread: started and joined here.
   std::atomic<bool> mapping_run{true};
+  double mapping_cpu_s = 0.0;  // written by the mapping thread before it ends, read after join
   std::thread mapping([&] {
     while (mapping_run) vo.RunMappingOnce(std::chrono::milliseconds(100));
+    mapping_cpu_s = ThreadCpuSeconds();
   });
   const Flight flight = Fly(o, source.get(), &vo, comm.get(), stop);
   vo.WaitUntilMappingIdle();
@@ -332,7 +363,9 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   }
   if (!source->error().empty()) return Error(source->error(), 1);
   if (!WriteOutputs(o, vo, flight, &error)) return Error(error, 1);
-  std::cout << Summary(o, flight, vo.stats(), comm.get()).dump() << std::endl;
+  nlohmann::json summary = Summary(o, flight, vo.stats(), comm.get());
+  summary["footprint"] = Footprint(flight, mapping_cpu_s, comm.get());
+  std::cout << summary.dump() << std::endl;
   return drained ? 0 : 3;
 }
 
