@@ -242,17 +242,21 @@ nlohmann::json Footprint(const Flight& f, double mapping_cpu_s, const AgentComm*
   const double comm_s = comm ? comm->cpu_seconds() : 0.0;
   const double other_s = std::max(0.0, process_s - f.tracking_cpu_s - f.input_cpu_s - mapping_cpu_s - comm_s);
   const double per_frame = f.frames ? 1000.0 / static_cast<double>(f.frames) : 0.0;
-  const nlohmann::json ms_per_frame = {{"tracking", f.tracking_cpu_s * per_frame},
-                                       {"mapping", mapping_cpu_s * per_frame},
-                                       {"comm", comm_s * per_frame},
-                                       {"input", f.input_cpu_s * per_frame},
-                                       {"other", other_s * per_frame},
-                                       {"total", process_s * per_frame}};
+  const nlohmann::json footprint = {{"cpu_ms_per_frame",
+                                     {{"tracking", f.tracking_cpu_s * per_frame},
+                                      {"mapping", mapping_cpu_s * per_frame},
+                                      {"comm", comm_s * per_frame},
+                                      {"input", f.input_cpu_s * per_frame},
+                                      {"other", other_s * per_frame},
+                                      {"total", process_s * per_frame}}},
+                                    {"peak_rss_mb", PeakRssMb()}};
+  const nlohmann::json& ms = footprint["cpu_ms_per_frame"];
   spdlog::info("CPU ms/frame: tracking {:.1f}, mapping {:.1f}, comm {:.1f}, input {:.1f}, other {:.1f}, total {:.1f}; "
                "peak RSS {:.0f} MB",
-               f.tracking_cpu_s * per_frame, mapping_cpu_s * per_frame, comm_s * per_frame, f.input_cpu_s * per_frame,
-               other_s * per_frame, process_s * per_frame, PeakRssMb());
-  return {{"cpu_ms_per_frame", ms_per_frame}, {"peak_rss_mb", PeakRssMb()}};
+               ms["tracking"].get<double>(), ms["mapping"].get<double>(), ms["comm"].get<double>(),
+               ms["input"].get<double>(), ms["other"].get<double>(), ms["total"].get<double>(),
+               footprint["peak_rss_mb"].get<double>());
+  return footprint;
 }
 
 // The summary line printed on stdout at the end (and its log lines).
