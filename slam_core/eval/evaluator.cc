@@ -9,6 +9,10 @@ bool EvalOptions::Validate(std::string* error) const {
     *error = "align_first_n must be -1 (all) or >= 1";
     return false;
   }
+  if (!(scale_window_m >= 0.0)) {
+    *error = "scale_window_m must be >= 0";
+    return false;
+  }
   return association.Validate(error) && rpe.Validate(error);
 }
 
@@ -91,6 +95,7 @@ bool Evaluate(const std::vector<AgentInput>& agents, const EvalOptions& options,
     agent.ate_errors_m = AbsoluteTranslationErrors(agent.gt_matched, aligned);
     agent.ate_m = ComputeStats(agent.ate_errors_m);
     agent.rpe = ComputeRpe(agent.gt_matched, aligned, options.rpe);
+    if (options.scale_window_m > 0.0) agent.scale_drift = ComputeScaleDrift(agent.gt_matched, aligned, options.scale_window_m);
   }
   JointResult& joint = report->joint;
   if (!Align(all, options, &joint.gt_from_est, error)) {

@@ -21,6 +21,8 @@ struct EvalOptions {
   int align_first_n = -1;
   AssociationOptions association;
   RpeOptions rpe;
+  /// > 0: each agent's scale drift over windows of this many metres of path (0: off).
+  double scale_window_m = 0.0;
   bool Validate(std::string* error) const;
 };
 
@@ -40,6 +42,7 @@ struct AgentResult {
   std::vector<double> ate_errors_m;
   ErrorStats ate_m;  ///< under the agent's own alignment
   RpeResult rpe;     ///< on the estimate under its own alignment
+  ScaleDrift scale_drift;  ///< under its own alignment (window scales around 1); if asked
   ErrorStats ate_joint_m;  ///< under the joint alignment
 };
 

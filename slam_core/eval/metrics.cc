@@ -133,4 +133,40 @@ RpeResult ComputeRpe(const std::vector<SE3>& gt, const std::vector<SE3>& est,
   return result;
 }
 
+namespace {
+
+// RMS distance of positions[first..last] to their centroid.
+double Spread(const std::vector<SE3>& poses, size_t first, size_t last) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (size_t i = first; i <= last; ++i) mean += poses[i].translation();
+  mean /= static_cast<double>(last - first + 1);
+  double sum = 0.0;
+  for (size_t i = first; i <= last; ++i) sum += (poses[i].translation() - mean).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(last - first + 1));
+}
+
+}  // namespace
+
+ScaleDrift ComputeScaleDrift(const std::vector<SE3>& gt, const std::vector<SE3>& est, double window_m) {
+  ScaleDrift result;
+  const size_t n = std::min(gt.size(), est.size());
+  if (n < 3 || !(window_m > 0.0)) return result;
+  size_t first = 0;
+  double path = 0.0;
+  for (size_t i = 1; i < n; ++i) {
+    path += (gt[i].translation() - gt[i - 1].translation()).norm();
+    if (path < window_m) continue;
+    const double est_spread = Spread(est, first, i);
+    if (est_spread > 0.0) result.windows.push_back({first, i, path, Spread(gt, first, i) / est_spread});
+    first = i;
+    path = 0.0;
+  }
+  if (result.windows.size() >= 2) {
+    const auto [lo, hi] = std::minmax_element(result.windows.begin(), result.windows.end(),
+                                              [](const ScaleWindow& a, const ScaleWindow& b) { return a.scale < b.scale; });
+    result.max_over_min = hi->scale / lo->scale;
+  }
+  return result;
+}
+
 }  // namespace ccm

@@ -24,6 +24,24 @@ double Percentile(std::vector<double> values, double q);
 /// Length of the path through the poses' positions [m].
 double PathLengthM(const std::vector<SE3>& poses);
 
+/// Scale drift of a monocular estimate. The associated pairs are cut into consecutive
+/// windows of `window_m` metres of ground-truth path; a window's scale is the spread of its
+/// ground-truth positions over the spread of its estimated ones (RMS distance to their
+/// centroid: rotation-free, so straight stretches count too). A trajectory whose scale
+/// drifts has windows whose scales differ although its ATE after one Sim(3) may look
+/// moderate: the ATE mixes scale drift with rotation drift, this separates it.
+struct ScaleWindow {
+  size_t first = 0, last = 0;  ///< pair indices (inclusive)
+  double gt_path_m = 0.0;
+  double scale = 0.0;          ///< gt spread / est spread
+};
+struct ScaleDrift {
+  std::vector<ScaleWindow> windows;
+  /// Largest over smallest window scale (1: no drift); 0 with fewer than two windows.
+  double max_over_min = 0.0;
+};
+ScaleDrift ComputeScaleDrift(const std::vector<SE3>& gt, const std::vector<SE3>& est, double window_m);
+
 /// ATE translation part: ||t_est_i - t_gt_i|| for associated (aligned) poses [m].
 std::vector<double> AbsoluteTranslationErrors(const std::vector<SE3>& gt,
                                               const std::vector<SE3>& est);

@@ -25,6 +25,12 @@ std::string VoOptions::Validate() const {
   if (auto e = keyframe.Validate(); !e.empty()) return e;
   if (local_ba_window < 2) return "local_ba_window must be >= 2";
   if (local_ba_max_fixed < 1) return "local_ba_max_fixed must be >= 1";
+  if (!(min_triangulation_parallax_deg > 0.0 && min_triangulation_parallax_deg < 90.0)) {
+    return "min_triangulation_parallax_deg must be in (0, 90)";
+  }
+  if (!(triangulation_parallax_sigmas >= 0.0 && triangulation_parallax_sigmas <= 1000.0)) {
+    return "triangulation_parallax_sigmas must be in [0, 1000]";
+  }
   if (redundant_kf_ratio <= 0 || redundant_kf_ratio > 1) return "redundant_kf_ratio must be in (0, 1]";
   if (reloc_min_matches < 6) return "reloc_min_matches must be >= 6";
   if (reloc_max_candidates < 1) return "reloc_max_candidates must be >= 1";

@@ -92,6 +92,9 @@ struct VoOptions {
   /// to look more parallel are rejected and more convergent ones kept, so too low a value
   /// biases depths short and shrinks the map scale (seen at 1.15 deg on the simulator).
   double min_triangulation_parallax_deg = 1.15;
+  /// ... and at least this many times the angular noise of the coarser keypoint (its
+  /// pyramid scale in pixels over the focal length). 0: off.
+  double triangulation_parallax_sigmas = 0.0;
 
   /// Keep one small record per tracked frame and per retired keyframe for FrameTrajectory()
   /// and KeyframeTrajectory() (standalone runs, evaluation). Off for unbounded onboard runs:

@@ -59,6 +59,18 @@ TEST(AgentConfig, VoSectionSetsOptionsAndIsStrict) {
   EXPECT_NE(error.find("init_min_homography_ratio"), std::string::npos) << error;
   EXPECT_FALSE(LoadAgentConfig(Write("h.yaml", "vo: 3\n"), &d, &error));
   EXPECT_NE(error.find("vo"), std::string::npos) << error;
+  // The triangulation keys (docs/vo.md, "Where the VO's scale goes wrong").
+  AgentConfig t;
+  ASSERT_TRUE(LoadAgentConfig(Write("t.yaml", "vo:\n  triangulation_parallax_sigmas: 10\n  min_triangulation_parallax_deg: 1.5\n"
+                                              "  local_ba_max_fixed: 20\n"), &t, &error)) << error;
+  EXPECT_DOUBLE_EQ(t.vo.triangulation_parallax_sigmas, 10.0);
+  EXPECT_DOUBLE_EQ(t.vo.min_triangulation_parallax_deg, 1.5);
+  EXPECT_EQ(t.vo.local_ba_max_fixed, 20);
+  AgentConfig u;
+  EXPECT_FALSE(LoadAgentConfig(Write("u.yaml", "vo:\n  triangulation_parallax_sigmas: -1\n"), &u, &error));
+  EXPECT_NE(error.find("triangulation_parallax_sigmas"), std::string::npos) << error;
+  EXPECT_FALSE(LoadAgentConfig(Write("v.yaml", "vo:\n  min_triangulation_parallax_deg: 0\n"), &u, &error));
+  EXPECT_NE(error.find("min_triangulation_parallax_deg"), std::string::npos) << error;
 }
 
 // The onboard template the ccm-agent package installs: one file per robot with its camera,

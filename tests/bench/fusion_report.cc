@@ -89,9 +89,11 @@ std::string SceneBlock(const SceneResult& r, bool events) {
     }
   }
   for (const AgentScore& a : sc.agents) {
-    s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m)%s, %d loop(s)\n",
+    s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m), scale drift %.0f %% "
+                "(first 5 m at %.2f)%s, %d loop(s)\n",
                 a.name.c_str(), 100.0 * a.tracked_share, a.segments, static_cast<long long>(a.relocalizations),
-                a.vo_ate_m, a.vo_ate_path_pct, a.path_m, a.revisits ? ", revisits" : "", a.loops);
+                a.vo_ate_m, a.vo_ate_path_pct, a.path_m, 100.0 * a.vo_scale_drift, a.vo_first_window_scale,
+                a.revisits ? ", revisits" : "", a.loops);
   }
   return s;
 }
@@ -124,7 +126,8 @@ nlohmann::json SceneJson(const SceneResult& r) {
   for (const AgentScore& a : sc.agents) {
     j["agent_vo"].push_back({{"name", a.name}, {"path_m", a.path_m}, {"tracked", a.tracked_share},
                              {"segments", a.segments}, {"relocalizations", a.relocalizations}, {"ate_m", a.vo_ate_m},
-                             {"ate_path_pct", a.vo_ate_path_pct}, {"revisits", a.revisits}, {"loops", a.loops}});
+                             {"ate_path_pct", a.vo_ate_path_pct}, {"scale_drift", a.vo_scale_drift},
+                             {"first_window_scale", a.vo_first_window_scale}, {"revisits", a.revisits}, {"loops", a.loops}});
   }
   return j;
 }
@@ -174,14 +177,14 @@ std::string Report(const std::vector<SceneResult>& results) {
                 sc.worst_joint_ratio >= 0 ? Format("%.2f", sc.worst_joint_ratio).c_str() : "-",
                 sc.worst_joint_ratio >= 0 ? Format("%.1f %%", 100.0 * sc.worst_scale_spread).c_str() : "-", r.wall_s);
   }
-  s += "\n| seed | agent | path m | tracked | segments | relocalizations | VO ATE m | % of path | revisits | loops |\n"
-       "|---|---|---|---|---|---|---|---|---|---|\n";
+  s += "\n| seed | agent | path m | tracked | segments | relocalizations | VO ATE m | % of path | scale drift | first 5 m | revisits | loops |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const SceneResult& r : results) {
     for (const AgentScore& a : r.score.agents) {
-      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %s | %d |\n",
+      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %.0f %% | %.2f | %s | %d |\n",
                   static_cast<unsigned long long>(r.scene.seed), a.name.c_str(), a.path_m, 100.0 * a.tracked_share,
                   a.segments, static_cast<long long>(a.relocalizations), a.vo_ate_m, a.vo_ate_path_pct,
-                  a.revisits ? "yes" : "no", a.loops);
+                  100.0 * a.vo_scale_drift, a.vo_first_window_scale, a.revisits ? "yes" : "no", a.loops);
     }
   }
   s += "\nRecall by measured overlap kind (qualifying pairs: >= 3 s each within 45 deg):\n";

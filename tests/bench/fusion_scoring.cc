@@ -83,19 +83,28 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
   return c;
 }
 
-// RMSE over segments, each aligned on its own (a new segment starts a new VO frame).
-double SegmentedAte(const report::AgentRunResult& a) {
+// RMSE over segments, each aligned on its own (a new segment starts a new VO frame), and
+// the scale drift of the longest segment (5 m windows).
+void ScoreSegments(const report::AgentRunResult& a, AgentScore* score) {
   double sum_sq = 0.0;
-  size_t n = 0;
+  size_t n = 0, longest = 0;
+  EvalOptions options;
+  options.scale_window_m = 5.0;
   for (const auto& [segment, t] : a.vo_segments) {
     if (t.size() < 3) continue;
     EvalReport rep;
     std::string error;
-    if (!Evaluate({{a.name, a.ground_truth, t}}, EvalOptions{}, &rep, &error)) continue;
-    sum_sq += rep.agents[0].ate_m.rmse * rep.agents[0].ate_m.rmse * static_cast<double>(rep.agents[0].matched);
-    n += rep.agents[0].matched;
+    if (!Evaluate({{a.name, a.ground_truth, t}}, options, &rep, &error)) continue;
+    const AgentResult& r = rep.agents[0];
+    sum_sq += r.ate_m.rmse * r.ate_m.rmse * static_cast<double>(r.matched);
+    n += r.matched;
+    if (r.matched > longest && r.scale_drift.windows.size() >= 2) {
+      longest = r.matched;
+      score->vo_scale_drift = r.scale_drift.max_over_min - 1.0;
+      score->vo_first_window_scale = r.scale_drift.windows.front().scale;
+    }
   }
-  return n ? std::sqrt(sum_sq / static_cast<double>(n)) : -1.0;
+  score->vo_ate_m = n ? std::sqrt(sum_sq / static_cast<double>(n)) : -1.0;
 }
 
 MapScore ScoreMap(const MapSummary& m, const report::RunResult& r, const std::vector<AgentScore>& agents) {
@@ -145,7 +154,7 @@ SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth
     as.tracked_share = a.frames ? static_cast<double>(a.frames_tracked) / static_cast<double>(a.frames) : 0.0;
     as.segments = a.segments;
     as.relocalizations = a.relocalizations;
-    as.vo_ate_m = SegmentedAte(a);
+    ScoreSegments(a, &as);
     if (as.vo_ate_m >= 0 && as.path_m > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / as.path_m;
     as.revisits = truth.agents()[i].revisits;
     s.agents.push_back(as);

@@ -56,6 +56,10 @@ struct AgentScore {
   int64_t relocalizations = 0;
   double vo_ate_m = -1.0;            ///< VO keyframes, each segment aligned on its own
   double vo_ate_path_pct = -1.0;     ///< vo_ate_m / path * 100
+  /// Scale drift of its longest segment over 5 m windows of path (largest / smallest window
+  /// scale - 1; -1: shorter than two windows) and the first window's scale (its own
+  /// alignment = 1): far from 1 when the scale moved right after initialization.
+  double vo_scale_drift = -1.0, vo_first_window_scale = -1.0;
   bool revisits = false;
   int loops = 0;                     ///< loops the server closed on its keyframes
 };

@@ -64,6 +64,27 @@ std::string FormatTable(const EvalReport& report, const EvalOptions& options) {
   };
   for (const AgentResult& a : report.agents) rpe_row(a.name, a.rpe.translation_m, a.rpe.rotation_deg);
   rpe_row("JOINT", j.rpe_translation_m, j.rpe_rotation_deg);
+  if (options.scale_window_m > 0.0) {
+    out += Line("\nScale drift (gt / est spread per %g m of path, each agent's alignment = 1)\n", options.scale_window_m);
+    out += Line("%-16s %7s %8s %8s %8s %8s %8s  %s\n", "agent", "windows", "first", "last", "min", "max",
+                "max/min", "per window");
+    for (const AgentResult& a : report.agents) {
+      const auto& w = a.scale_drift.windows;
+      if (w.empty()) {
+        out += Line("%-16s %7d (path shorter than one window)\n", a.name.c_str(), 0);
+        continue;
+      }
+      double lo = w.front().scale, hi = lo;
+      std::string each;
+      for (const ScaleWindow& x : w) {
+        lo = std::min(lo, x.scale);
+        hi = std::max(hi, x.scale);
+        each += Line(" %.2f", x.scale);
+      }
+      out += Line("%-16s %7zu %8.3f %8.3f %8.3f %8.3f %8.3f ", a.name.c_str(), w.size(), w.front().scale,
+                  w.back().scale, lo, hi, a.scale_drift.max_over_min) + each + "\n";
+    }
+  }
   return out;
 }
 
@@ -83,6 +104,15 @@ nlohmann::json ToJson(const EvalReport& report, const EvalOptions& options,
                       {"ate_joint_m", StatsJson(a.ate_joint_m)},
                       {"rpe_translation_m", StatsJson(a.rpe.translation_m)},
                       {"rpe_rotation_deg", StatsJson(a.rpe.rotation_deg)}});
+    if (options.scale_window_m > 0.0) {
+      nlohmann::json windows = nlohmann::json::array();
+      for (const ScaleWindow& w : a.scale_drift.windows) {
+        windows.push_back({{"first", w.first}, {"last", w.last}, {"gt_path_m", w.gt_path_m}, {"scale", w.scale}});
+      }
+      agents.back()["scale_drift"] = {{"window_m", options.scale_window_m},
+                                      {"max_over_min", a.scale_drift.max_over_min},
+                                      {"windows", windows}};
+    }
   }
   const JointResult& j = report.joint;
   return {{"tool", "ccm_eval"},

@@ -47,6 +47,10 @@ void AddOptions(CLI::App* app, Args* args) {
   app->add_option("--rpe-unit", args->rpe_unit, "RPE step unit: frames or m (path length)")
       ->check(CLI::IsMember({"frames", "m"}))->capture_default_str();
   app->add_flag("--rpe-all-pairs", args->eval.rpe.all_pairs, "RPE over all (overlapping) pairs");
+  app->add_option("--scale-window", args->eval.scale_window_m,
+                  "also print each agent's scale drift: its scale over windows of this many metres of path (0: off)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app->add_option("--json", args->json_path, "write results as JSON");
   app->add_option("--plot", args->plot_path, "write a PNG top view (ground truth vs aligned estimate)");
   app->add_option("--plot-plane", args->plot.plane, "auto, xy, xz or yz")->capture_default_str();

@@ -237,6 +237,43 @@ TEST(Rpe, PairsAndKnownDrift) {
   EXPECT_FALSE(options.Validate(&error));
 }
 
+// A monocular estimate whose scale shrinks steadily: each step of the loop is drawn 1.0x at
+// the start and 0.7x at the end. The ATE after one Sim(3) mixes this with everything else;
+// the scale drift names it: first windows above the last by ~1/0.7.
+TEST(ScaleDriftMetric, SeparatesSteadyShrinkFromAConstantScale) {
+  const Trajectory gt = LoopTrajectory(400, 0, 5.0, 0.0);
+  const Sim3 est_from_gt(3.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY())), Eigen::Vector3d(1, 2, 3));
+  Trajectory shrinking = gt;
+  Eigen::Vector3d p = gt[0].world_from_cam.translation();
+  for (size_t i = 1; i < gt.size(); ++i) {
+    const double step_scale = 1.0 - 0.3 * static_cast<double>(i) / static_cast<double>(gt.size() - 1);
+    p += step_scale * (gt[i].world_from_cam.translation() - gt[i - 1].world_from_cam.translation());
+    shrinking[i].world_from_cam = SE3(gt[i].world_from_cam.rotation(), p);
+  }
+  EvalOptions options;
+  options.scale_window_m = 4.0;
+  EvalReport report;
+  std::string error;
+  ASSERT_TRUE(Evaluate({{"constant", gt, Transform(gt, est_from_gt)}, {"shrinking", gt, Transform(shrinking, est_from_gt)}},
+                       options, &report, &error)) << error;
+  const ScaleDrift& constant = report.agents[0].scale_drift;
+  const ScaleDrift& drifting = report.agents[1].scale_drift;
+  ASSERT_GE(constant.windows.size(), 5u);
+  EXPECT_NEAR(constant.max_over_min, 1.0, 1e-6);
+  EXPECT_NEAR(constant.windows.front().scale, 1.0, 1e-6);  // the agent's own alignment removed the 3x
+  ASSERT_EQ(drifting.windows.size(), constant.windows.size());
+  // Window scale = gt / est spread: 1 / step scale, ~1.0 in the first window, ~1/0.7 in the last.
+  EXPECT_LT(drifting.windows.front().scale, drifting.windows.back().scale);
+  // Each window sees the mean step scale of its stretch: the ratio is that of the first and
+  // the last window's middle steps (1.30 here), not the whole flight's 1 / 0.7.
+  auto step_scale_at = [&](const ScaleWindow& w) { return 1.0 - 0.3 * 0.5 * static_cast<double>(w.first + w.last) / (gt.size() - 1); };
+  EXPECT_NEAR(drifting.max_over_min, step_scale_at(drifting.windows.front()) / step_scale_at(drifting.windows.back()), 0.03);
+  EXPECT_GT(drifting.max_over_min, 1.25);
+  for (size_t i = 1; i < drifting.windows.size(); ++i) EXPECT_GT(drifting.windows[i].scale, drifting.windows[i - 1].scale);
+  options.scale_window_m = -1.0;
+  EXPECT_FALSE(options.Validate(&error));
+}
+
 TEST(Evaluate, ClearErrors) {
   EvalReport report;
   std::string error;
