@@ -65,7 +65,7 @@ ServerBackend::ServerBackend(std::shared_ptr<const Vocabulary> vocabulary, Serve
       mapper_(options_.mapping),
       matcher_(vocabulary_, options_.place, stack_.get()),
       scheduler_(LimitsOf(options_)),
-      redundancy_(options_.redundancy.theta, options_.redundancy.seed),
+      redundancy_(options_.redundancy, stack_.get()),
       events_(std::move(restored.events)) {
   for (const auto& m : stack_->Maps()) {
     std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
@@ -325,27 +325,11 @@ void ServerBackend::RunGlobalBa(MapId map) {
   AddEvent(e);
 }
 
-bool ServerBackend::RunRedundancyStep() {
-  // Round-robin over the maps large enough to thin out.
-  auto maps = stack_->Maps();
-  maps.erase(std::remove_if(maps.begin(), maps.end(),
-                            [&](const auto& m) {
-                              return static_cast<int>(m->map().num_keyframes()) < options_.redundancy.min_map_keyframes;
-                            }),
-             maps.end());
-  if (maps.empty()) return false;
-  const auto smap = maps[redundancy_next_++ % maps.size()];
-  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
-  if (smap->retired()) return false;
-  std::vector<KeyframeId> protect;
-  for (const AgentHandler& h : stack_->HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
-  const RedundancyStep step = redundancy_.Step(smap.get(), protect);
-  for (const KeyframeId id : step.removed) matcher_.OnKeyframeErased(id);
-  if (!step.removed.empty()) {
-    std::lock_guard<std::mutex> slock(stats_mutex_);
-    stats_.keyframes_removed += static_cast<int64_t>(step.removed.size());
-  }
-  return !step.removed.empty();
+void ServerBackend::RunRedundancyStep() {
+  const auto removed = redundancy_.Step([this](KeyframeId id) { matcher_.OnKeyframeErased(id); });
+  if (removed.empty()) return;
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.keyframes_removed += static_cast<int64_t>(removed.size());
 }
 
 void ServerBackend::Stop() { scheduler_.Stop(); }

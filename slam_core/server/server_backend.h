@@ -3,7 +3,7 @@
 //   Submit (validate; BackendScheduler: per-agent queue) -> AgentRegistration (relative
 //   poses -> map, lambda) -> ServerMapper (covisibility, point fusion, local BA,
 //   near-duplicates) -> PlaceMatcher (database + verification + consistency) -> CloseLoop /
-//   FuseMaps -> global BA and redundancy removal -> outgoing (acks, the k covisible
+//   FuseMaps -> global BA and RedundancyStage -> outgoing (acks, the k covisible
 //   keyframes for the agent).
 // The back-end owns no thread. The caller runs the stages: RunHandlerOnce(agent) on one
 // thread per agent (several agents register into one merged map in parallel),
@@ -99,7 +99,7 @@ class ServerBackend {
   void HandleDetection(const PlaceDetection& detection);
   bool RunOptimization(std::chrono::milliseconds timeout, bool respect_pause);
   void RunGlobalBa(MapId map);
-  bool RunRedundancyStep();
+  void RunRedundancyStep();
   void AddEvent(ServerEvent e);
   double Elapsed() const;
 
@@ -110,8 +110,7 @@ class ServerBackend {
   ServerMapper mapper_;
   PlaceMatcher matcher_;  // place-recognition thread (its database is thread-safe)
   BackendScheduler scheduler_;
-  RedundancyRemover redundancy_;  // optimization thread
-  size_t redundancy_next_ = 0;    // optimization thread: round-robin over maps
+  RedundancyStage redundancy_;  // optimization thread
 
   mutable std::mutex callback_mutex_;  // leaf
   std::function<void(AgentId)> on_new_agent_;
