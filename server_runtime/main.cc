@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <set>
 #include <thread>
 
 #include "slam_core/common/install_paths.h"
@@ -184,10 +185,13 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
   if (!backend) return nullptr;
   if (!warning.empty()) spdlog::warn("{}", warning);
   size_t kfs = 0;
-  const auto maps = backend->Snapshot().Summaries();
+  const MapStackSnapshot loaded = backend->Snapshot();
+  const auto maps = loaded.Summaries();
   for (const auto& m : maps) kfs += m.keyframes;
-  spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, maps.size(), kfs,
-               backend->Status().agents.size());
+  // The agents the file knows (their handlers): none has submitted to this process yet.
+  std::set<AgentId> agents;
+  for (const AgentHandler& h : loaded.handlers) agents.insert(h.agent);
+  spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, maps.size(), kfs, agents.size());
   return backend;
 }
 
