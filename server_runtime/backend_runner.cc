@@ -16,7 +16,7 @@ BackendRunner::BackendRunner(ServerBackend* backend) : backend_(backend) {
   threads_.emplace_back([this] {
     while (running_) backend_->RunOptimizationOnce(kWait);
   });
-  for (const AgentId a : backend_->agents()) {
+  for (const AgentId a : backend_->Status().agents) {
     threads_.emplace_back([this, a] {
       while (running_) backend_->RunHandlerOnce(a, kWait);
     });

@@ -1,5 +1,6 @@
 // Runs the server back-end's stages on threads: one handler thread per agent (started when
-// the agent first submits, or at start for agents of a loaded map), one place-recognition
+// the agent first submits, or at start for agents that submitted before, e.g. to a runner
+// stopped earlier; a loaded map's agents start theirs when they submit), one place-recognition
 // thread, one optimization thread. It owns and joins them all; the back-end stays a
 // thread-agnostic library. Used by ccm_server and by ccm_replay's threaded mode.
 #pragma once

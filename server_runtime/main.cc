@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <set>
 #include <thread>
 
 #include "slam_core/common/install_paths.h"
@@ -25,6 +26,7 @@
 #include "server_runtime/server_outputs.h"
 #include "server_runtime/server_status.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
+#include "slam_core/server/map_persistence.h"
 #include "slam_core/server/stack_file.h"
 
 #ifndef CCM_DEFAULT_VOCABULARY
@@ -42,7 +44,7 @@ void OnSignal(int sig) {
 // Grows whenever the map stack changes (new keyframes, refinements, fusions, loops, BAs,
 // removals): autosave skips a save when it has not moved.
 int64_t StackVersion(const ccm::ServerBackend& backend) {
-  const ccm::BackendStats s = backend.stats();
+  const ccm::BackendStats s = backend.Status().stats;
   int64_t v = s.fusions + s.loops + s.global_ba_applied + s.keyframes_removed;
   for (const auto& [id, c] : s.agents) v += c.keyframes_registered + c.points_registered + c.updates_applied;
   return v;
@@ -54,12 +56,13 @@ bool SaveMapStack(const ccm::ServerBackend& backend, const std::string& path, co
   const auto parent = std::filesystem::path(path).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
   std::string error;
-  if (!backend.Save(path, &error)) {
+  const ccm::MapStackSnapshot snapshot = backend.Snapshot();
+  if (!ccm::MapPersistence::Save(snapshot, path, &error)) {
     spdlog::error("{}: saving the map stack failed: {}", why, error);
     return false;
   }
   size_t kfs = 0;
-  const auto maps = backend.Maps();
+  const auto maps = snapshot.Summaries();
   for (const auto& m : maps) kfs += m.keyframes;
   spdlog::info("{}: map stack saved to {} ({} maps, {} keyframes, {:.0f} ms)", why, path, maps.size(), kfs,
                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
@@ -72,9 +75,10 @@ int Fail(const std::string& message, int code = 2) {
 }
 
 void LogProgress(const ccm::ServerBackend& backend, const ccm::server::ServerCommStats& comm) {
-  const auto maps = backend.Maps();
-  const auto stats = backend.stats();
-  const auto queues = backend.queue_depths();
+  const auto maps = backend.Snapshot().Summaries();
+  const auto status = backend.Status();
+  const auto& stats = status.stats;
+  const auto& queues = status.queues;
   std::string agents;
   for (const auto& [id, l] : comm.agents) {
     const auto c = stats.agents.count(id) ? stats.agents.at(id) : ccm::AgentCounters{};
@@ -177,19 +181,24 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
   options.neighbourhood_k = config.neighbourhood_k;
   if (config.load_map.empty()) return std::make_unique<ServerBackend>(vocabulary, options);
   std::string warning;
-  auto backend = ServerBackend::Load(config.load_map, vocabulary, options, error, &warning);
+  auto backend = LoadBackend(config.load_map, vocabulary, options, error, &warning);
   if (!backend) return nullptr;
   if (!warning.empty()) spdlog::warn("{}", warning);
   size_t kfs = 0;
-  for (const auto& m : backend->Maps()) kfs += m.keyframes;
-  spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, backend->Maps().size(), kfs,
-               backend->agents().size());
+  const MapStackSnapshot loaded = backend->Snapshot();
+  const auto maps = loaded.Summaries();
+  for (const auto& m : maps) kfs += m.keyframes;
+  // The agents the file knows (their handlers): none has submitted to this process yet.
+  std::set<AgentId> agents;
+  for (const AgentHandler& h : loaded.handlers) agents.insert(h.agent);
+  spdlog::info("loaded {}: {} maps, {} keyframes, {} agents", config.load_map, maps.size(), kfs, agents.size());
   return backend;
 }
 
 // What runs while the daemon is up. Destroyed in reverse order: the map view and the status
 // writer before the comm module, the comm module before the stage threads and the back-end.
 struct Services {
+  size_t vocabulary_words = 0;  // for the start-up line
   std::unique_ptr<ServerBackend> backend;
   std::unique_ptr<server::BackendRunner> runner;
   std::unique_ptr<server::ServerComm> comm;
@@ -209,7 +218,7 @@ bool StartServices(const ServerArgs& a, Services* s, std::string* error) {
   if (a.session.fault.enabled()) spdlog::warn("fault injection active: {}", a.session.fault.ToString());
   spdlog::info("server up on domain {} (QoS {}, vocabulary {}: {} words, max {} agents, map sharing k = {})",
                a.config.domain_id, s->comm->session().options().qos_file, a.config.vocabulary,
-               s->backend->vocabulary().num_words(), a.config.max_agents,
+               s->vocabulary_words, a.config.max_agents,
                a.config.map_sharing ? a.config.neighbourhood_k : 0);
   if (a.map_view.enabled()) {
     const server::ServerComm* comm = s->comm.get();
@@ -262,7 +271,7 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
     const bool anyone_alive =
         std::any_of(stats.agents.begin(), stats.agents.end(), [](const auto& agent) { return agent.second.alive; });
     if (a.idle_exit_s > 0.0 && stats.last_data_s >= 0.0 && !anyone_alive &&
-        stats.elapsed_s - stats.last_data_s >= a.idle_exit_s && s.backend->Idle()) {
+        stats.elapsed_s - stats.last_data_s >= a.idle_exit_s && s.backend->Status().idle) {
       spdlog::info("every agent left and no data for {:.0f} s: stopping", a.idle_exit_s);
       break;
     }
@@ -279,7 +288,7 @@ int Shutdown(const ServerArgs& a, Services* s, std::chrono::steady_clock::time_p
   ServerBackend& backend = *s->backend;
   backend.ProcessAllQueued();
   if (!a.no_final_ba) {
-    for (const auto& m : backend.Maps()) {
+    for (const auto& m : backend.Snapshot().Summaries()) {
       if (m.keyframes >= 3) backend.ScheduleGlobalBa(m.id);
     }
     backend.ProcessAllQueued();
@@ -299,7 +308,7 @@ int Shutdown(const ServerArgs& a, Services* s, std::chrono::steady_clock::time_p
       code = 1;
     }
   }
-  std::cout << server::CommSummaryJson(comm_stats, traffic, backend.stats()) << std::endl;
+  std::cout << server::CommSummaryJson(comm_stats, traffic, backend.Status().stats) << std::endl;
   return code;
 }
 
@@ -316,6 +325,7 @@ int main(int argc, char** argv) {
   auto vocabulary = LoadVocabularyFile(args.config.vocabulary, &error);
   if (!vocabulary) return Fail(error);
   Services services;
+  services.vocabulary_words = vocabulary->num_words();
   services.backend =
       OpenBackend(args.config, std::make_shared<const Vocabulary>(std::move(*vocabulary)), &error);
   if (!services.backend || !StartServices(args, &services, &error)) return Fail(error, 1);

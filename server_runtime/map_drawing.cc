@@ -75,7 +75,7 @@ void Text(cv::Mat* img, const std::string& s, cv::Point at, const cv::Scalar& co
 }
 
 // One map's panel: points, each agent's keyframe path (ground truth light, where scored).
-cv::Mat DrawPanel(const MapScore& ms, const RunResult& result, const ServerBackend& backend, bool largest,
+cv::Mat DrawPanel(const MapScore& ms, const RunResult& result, const MapStackSnapshot& maps, bool largest,
                   int size_px) {
   const Sim3 to_view = ms.scored ? ms.gt_from_map : Sim3();
   std::vector<std::vector<Eigen::Vector3d>> trajs, gts;
@@ -100,7 +100,7 @@ cv::Mat DrawPanel(const MapScore& ms, const RunResult& result, const ServerBacke
     gts.push_back(g);
   }
   std::vector<Eigen::Vector3d> points;
-  if (const auto smap = backend.stack().GetMap(ms.summary.id)) {
+  if (const auto smap = maps.Map(ms.summary.id)) {
     for (const auto& mp : smap->map().map_points()) points.push_back(to_view * mp->position());
   }
   const Projection proj = FitProjection(cameras, points);
@@ -163,8 +163,8 @@ cv::Mat DrawPanel(const MapScore& ms, const RunResult& result, const ServerBacke
 
 }  // namespace
 
-bool WriteMapPly(const std::string& path, const ServerBackend& backend, MapId map_id, std::string* error) {
-  const auto smap = backend.stack().GetMap(map_id);
+bool WriteMapPly(const std::string& path, const MapStackSnapshot& maps, MapId map_id, std::string* error) {
+  const auto smap = maps.Map(map_id);
   std::vector<Eigen::Vector3d> points;
   std::vector<std::pair<Eigen::Vector3d, AgentId>> cams;
   if (smap) {
@@ -190,7 +190,7 @@ bool WriteMapPly(const std::string& path, const ServerBackend& backend, MapId ma
 }
 
 bool WriteMapTopView(const std::string& path, const RunResult& result, const RunEvaluation& ev,
-                     const ServerBackend& backend, std::string* error, int panel_px) {
+                     const MapStackSnapshot& maps, std::string* error, int panel_px) {
   const int n = static_cast<int>(ev.map_scores.size());
   if (panel_px <= 0) panel_px = n <= 1 ? 1200 : 800;
   // Two maps side by side, up to four in a square, more three to a row.
@@ -199,7 +199,7 @@ bool WriteMapTopView(const std::string& path, const RunResult& result, const Run
   cv::Mat img(rows * panel_px, cols * panel_px, CV_8UC3, cv::Scalar(255, 255, 255));
   for (int i = 0; i < n; ++i) {
     const MapScore& ms = ev.map_scores[i];
-    DrawPanel(ms, result, backend, ms.summary.id == ev.final_map, panel_px)
+    DrawPanel(ms, result, maps, ms.summary.id == ev.final_map, panel_px)
         .copyTo(img(cv::Rect((i % cols) * panel_px, (i / cols) * panel_px, panel_px, panel_px)));
   }
   if (n == 0) Text(&img, "no map", {20, 30}, {0, 0, 0}, 2);

@@ -12,9 +12,9 @@
 
 namespace ccm::report {
 
-bool WriteMapPly(const std::string& path, const ServerBackend& backend, MapId map, std::string* error);
+bool WriteMapPly(const std::string& path, const MapStackSnapshot& maps, MapId map, std::string* error);
 /// `panel_px`: side of each panel; 0: 1200 for one map, 800 for several.
 bool WriteMapTopView(const std::string& path, const RunResult& result, const RunEvaluation& evaluation,
-                     const ServerBackend& backend, std::string* error, int panel_px = 0);
+                     const MapStackSnapshot& maps, std::string* error, int panel_px = 0);
 
 }  // namespace ccm::report

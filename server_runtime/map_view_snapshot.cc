@@ -104,8 +104,8 @@ std::shared_ptr<const MapViewSnapshot> MapViewModel::Latest() const {
   return latest_;
 }
 
-void MapViewModel::CopyMaps(MapViewSnapshot* next, double* max_hold_us) {
-  const auto maps = Timed(max_hold_us, [&] { return backend_->stack().Maps(); });
+void MapViewModel::CopyMaps(const MapStackSnapshot& stack, MapViewSnapshot* next, double* max_hold_us) {
+  const auto& maps = stack.maps;
   std::vector<std::vector<std::shared_ptr<MapPoint>>> points(maps.size());
   size_t total_points = 0;
   for (size_t m = 0; m < maps.size(); ++m) {
@@ -181,7 +181,8 @@ void MapViewModel::Refresh() {
   const auto prev = Latest();
   auto next = std::make_shared<MapViewSnapshot>();
   double max_hold_us = 0.0;
-  CopyMaps(next.get(), &max_hold_us);
+  const MapStackSnapshot stack = Timed(&max_hold_us, [&] { return backend_->Snapshot(); });
+  CopyMaps(stack, next.get(), &max_hold_us);
   next->removed_keyframes = prev->removed_keyframes;
   next->removed_points = prev->removed_points;
   next->removed_edges = prev->removed_edges;
@@ -197,8 +198,8 @@ void MapViewModel::Refresh() {
   Prune(&next->removed_points, horizon);
   Prune(&next->removed_edges, horizon);
   next->oldest_tombstone = horizon;
-  next->events = Timed(&max_hold_us, [&] { return backend_->events(); });
-  BuildStatus(next.get(), &max_hold_us);
+  next->events = stack.events;
+  BuildStatus(stack, next.get(), &max_hold_us);
   next->server_time_s = std::chrono::duration<double>(Clock::now() - start_).count();
   next->timing.refresh_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   next->timing.max_lock_hold_us = max_hold_us;

@@ -96,8 +96,8 @@ class MapViewModel {
   std::shared_ptr<const MapViewSnapshot> Latest() const;
 
  private:
-  void CopyMaps(MapViewSnapshot* next, double* max_hold_us);
-  void BuildStatus(MapViewSnapshot* next, double* max_hold_us);
+  void CopyMaps(const MapStackSnapshot& stack, MapViewSnapshot* next, double* max_hold_us);
+  void BuildStatus(const MapStackSnapshot& stack, MapViewSnapshot* next, double* max_hold_us);
   void Diff(const MapViewSnapshot& prev, MapViewSnapshot* next, bool* changed) const;
 
   const ServerBackend* backend_;

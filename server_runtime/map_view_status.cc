@@ -18,7 +18,7 @@ nlohmann::json PoseJson(const SE3& pose) {
 
 }  // namespace
 
-void MapViewModel::BuildStatus(MapViewSnapshot* next, double* max_hold_us) {
+void MapViewModel::BuildStatus(const MapStackSnapshot& stack, MapViewSnapshot* next, double* max_hold_us) {
   auto timed = [max_hold_us](auto&& f) {
     const auto t0 = std::chrono::steady_clock::now();
     auto r = f();
@@ -26,10 +26,11 @@ void MapViewModel::BuildStatus(MapViewSnapshot* next, double* max_hold_us) {
                             std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
     return r;
   };
-  const auto maps = timed([&] { return backend_->Maps(); });
-  const auto handlers = timed([&] { return backend_->stack().Handlers(); });
-  const auto stats = timed([&] { return backend_->stats(); });
-  const auto queues = timed([&] { return backend_->queue_depths(); });
+  const auto maps = timed([&] { return stack.Summaries(); });
+  const auto& handlers = stack.handlers;
+  const auto status = timed([&] { return backend_->Status(); });
+  const BackendStats& stats = status.stats;
+  const QueueDepths& queues = status.queues;
 
   nlohmann::json agents = nlohmann::json::object();
   // The agent's newest registered keyframe (largest stamp over its segments) is where the
@@ -46,7 +47,7 @@ void MapViewModel::BuildStatus(MapViewSnapshot* next, double* max_hold_us) {
     const std::string map_text = IdText(h.map.packed());
     if (std::find(a["maps"].begin(), a["maps"].end(), map_text) == a["maps"].end()) a["maps"].push_back(map_text);
     if (!h.last_keyframe.valid()) continue;
-    const auto map = backend_->stack().GetMap(h.map);
+    const auto map = stack.Map(h.map);
     if (!map) continue;
     const auto kf = timed([&] { return map->map().keyframe(h.last_keyframe); });
     int64_t stamp = 0;

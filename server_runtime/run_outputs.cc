@@ -162,7 +162,7 @@ nlohmann::json SummaryJson(const RunResult& result, const RunEvaluation& ev) {
 }  // namespace
 
 bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunEvaluation& ev,
-                        const ServerBackend& backend, std::string* error) {
+                     const MapStackSnapshot& maps, std::string* error) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) {
@@ -184,17 +184,17 @@ bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunE
       const std::string path = dir + "/" + MapTrajectoryFile(ms.summary.id, a->name);
       if (!WriteTum(path, InMap(a->server_keyframes, ms.summary.id), error)) return false;
     }
-    if (!WriteMapPly(dir + "/" + MapPlyFile(ev, ms.summary.id), backend, ms.summary.id, error)) return false;
+    if (!WriteMapPly(dir + "/" + MapPlyFile(ev, ms.summary.id), maps, ms.summary.id, error)) return false;
   }
   // No map at all (no agent initialized): an empty map.ply, so the file list stays fixed.
-  if (ev.map_scores.empty() && !WriteMapPly(dir + "/map.ply", backend, MapId(), error)) return false;
+  if (ev.map_scores.empty() && !WriteMapPly(dir + "/map.ply", maps, MapId(), error)) return false;
   std::ofstream out(dir + "/summary.json");
   out << SummaryJson(result, ev).dump(2) << "\n";
   if (!out) {
     *error = "cannot write " + dir + "/summary.json";
     return false;
   }
-  return WriteMapTopView(dir + "/map_top.png", result, ev, backend, error);
+  return WriteMapTopView(dir + "/map_top.png", result, ev, maps, error);
 }
 
 }  // namespace ccm::report

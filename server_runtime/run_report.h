@@ -14,7 +14,8 @@
 #include "slam_core/eval/metrics.h"
 #include "slam_core/geometry/sim3.h"
 #include "slam_core/io/trajectory.h"
-#include "slam_core/server/server_backend.h"
+#include "slam_core/server/backend_status.h"
+#include "slam_core/server/map_stack_snapshot.h"
 
 namespace ccm::report {
 
@@ -100,8 +101,9 @@ std::string MapPlyFile(const RunEvaluation& evaluation, MapId map);
 
 /// Writes into `dir`: map<k>_<agent>_keyframes.tum for every map and agent in it,
 /// <agent>_keyframes.tum (largest map, as before maps were listed), <agent>_ground_truth.tum,
-/// summary.json (every map), map.ply / map<k>.ply, map_top.png (a panel per map).
+/// summary.json (every map), map.ply / map<k>.ply, map_top.png (a panel per map). The map
+/// files are drawn from `maps` (ServerBackend::Snapshot()).
 bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunEvaluation& evaluation,
-                        const ServerBackend& backend, std::string* error);
+                     const MapStackSnapshot& maps, std::string* error);
 
 }  // namespace ccm::report

@@ -107,20 +107,22 @@ bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, co
                         const std::vector<rt::TopicCountersSnapshot>& traffic, double wall_s, std::string* error) {
   // The live server has no ground truth: the report scores nothing and names the files.
   report::RunResult result;
-  for (const AgentId id : backend.agents()) {
+  const BackendStatus status = backend.Status();
+  const MapStackSnapshot maps = backend.Snapshot();
+  for (const AgentId id : status.agents) {
     report::AgentRunResult a;
     a.name = "agent" + std::to_string(id);
     a.id = id;
-    a.server_keyframes = backend.AgentTrajectory(id);
+    a.server_keyframes = maps.AgentTrajectory(id);
     if (comm.agents.count(id)) {
       a.keyframes_created = comm.agents.at(id).kfs_created;
       a.segments = static_cast<int>(comm.agents.at(id).segments.size());
     }
     result.agents.push_back(std::move(a));
   }
-  result.events = backend.events();
-  result.maps = backend.Maps();
-  result.stats = backend.stats();
+  result.events = maps.events;
+  result.maps = maps.Summaries();
+  result.stats = status.stats;
   result.wall_s = wall_s;
   const report::RunEvaluation ev = report::EvaluateRun(result);
   std::error_code ec;
@@ -130,7 +132,7 @@ bool WriteServerOutputs(const std::string& dir, const ServerBackend& backend, co
     return false;
   }
   // Without any map (no agent ever sent a keyframe) there is nothing to draw.
-  if (!result.maps.empty() && !report::WriteRunOutputs(dir, result, ev, backend, error)) return false;
+  if (!result.maps.empty() && !report::WriteRunOutputs(dir, result, ev, maps, error)) return false;
   std::ofstream out(dir + "/server.json");
   out << CommSummaryJson(comm, traffic, result.stats, 2) << "\n";
   if (!out) {

@@ -18,8 +18,9 @@ status::ServerStatus MakeServerStatus(const ServerBackend& backend, const Server
   s.pid(static_cast<uint32_t>(getpid()));
   s.map_file(info.map_file.substr(0, 511));
   s.last_save_s(info.last_save_s);
-  const BackendStats stats = backend.stats();
-  const QueueDepths queues = backend.queue_depths();
+  const BackendStatus status = backend.Status();
+  const BackendStats& stats = status.stats;
+  const QueueDepths& queues = status.queues;
   s.fusions(stats.fusions);
   s.loops(stats.loops);
   s.global_bas(stats.global_ba_applied);
@@ -50,7 +51,7 @@ status::ServerStatus MakeServerStatus(const ServerBackend& backend, const Server
     a.tracking_state(static_cast<uint8_t>(link.tracking_state));
     s.agents().push_back(a);
   }
-  for (const MapSummary& m : backend.Maps()) {
+  for (const MapSummary& m : backend.Snapshot().Summaries()) {
     if (s.maps().size() >= status::kMaxStatusMaps) break;
     status::MapEntry e;
     e.map_id(m.id.packed());

@@ -304,12 +304,11 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
 
 }  // namespace
 
-bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>& events, const std::string& path,
-                          std::string* error) {
+bool MapPersistence::Save(const MapStackSnapshot& snapshot, const std::string& path, std::string* error) {
   StackRecord rec;
   std::map<CameraRecord, uint32_t> cameras;
   std::set<uint64_t> saved_maps;
-  for (const auto& m : stack.Maps()) {
+  for (const auto& m : snapshot.maps) {
     std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
     if (m->retired()) continue;
     rec.maps.push_back(ToRecord(*m, &cameras));
@@ -317,8 +316,8 @@ bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>&
   }
   rec.cameras.resize(cameras.size());
   for (const auto& [c, i] : cameras) rec.cameras[i] = c;
-  rec.next_map = stack.next_map_counter();
-  for (const AgentHandler& h : stack.Handlers()) {
+  rec.next_map = snapshot.next_map_counter;
+  for (const AgentHandler& h : snapshot.handlers) {
     if (!saved_maps.count(h.map.packed())) continue;
     const Sim3& S = h.map_from_segment;
     rec.handlers.push_back({h.agent, h.segment.packed(), h.map.packed(), h.last_keyframe.packed(), S.scale(),
@@ -326,7 +325,7 @@ bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>&
                              S.translation().y(), S.translation().z()},
                             h.scale, h.keyframes});
   }
-  for (const ServerEvent& e : events) {
+  for (const ServerEvent& e : snapshot.events) {
     rec.events.push_back({static_cast<int>(e.kind), e.time_s, e.seconds, e.stamp_ns, e.agent, e.map.packed(),
                           e.other_map.packed(), e.query.packed(), e.candidate.packed(), e.keyframes, e.detail});
   }
@@ -340,7 +339,7 @@ bool MapPersistence::Save(const MapStack& stack, const std::vector<ServerEvent>&
 
 namespace {
 
-std::optional<MapStackContents> Decode(const std::string& path, const std::string& bytes, const MapOptions& map_options,
+std::optional<RestoredStack> Decode(const std::string& path, const std::string& bytes, const MapOptions& map_options,
                                        std::string* error) {
   StackRecord rec;
   try {
@@ -366,7 +365,8 @@ std::optional<MapStackContents> Decode(const std::string& path, const std::strin
     }
     cameras.push_back(cam);
   }
-  MapStackContents out;
+  RestoredStack out;
+  out.stack = std::make_shared<MapStack>(map_options);
   std::set<uint64_t> maps;
   for (const MapRecord& m : rec.maps) {
     auto smap = FromRecord(m, map_options, cameras, error);
@@ -375,7 +375,7 @@ std::optional<MapStackContents> Decode(const std::string& path, const std::strin
       return std::nullopt;
     }
     maps.insert(smap->id().packed());
-    out.maps.push_back(std::move(smap));
+    out.stack->RestoreMap(std::move(smap));
   }
   for (const HandlerRecord& h : rec.handlers) {
     AgentHandler a;
@@ -391,9 +391,9 @@ std::optional<MapStackContents> Decode(const std::string& path, const std::strin
       *error = path + ": handler of agent " + std::to_string(h.agent) + " points to a missing map";
       return std::nullopt;
     }
-    out.handlers.push_back(a);
+    out.stack->RestoreHandler(a);
   }
-  out.next_map_counter = rec.next_map;
+  out.stack->set_next_map_counter(rec.next_map);
   for (const EventRecord& e : rec.events) {
     ServerEvent ev;
     ev.kind = static_cast<ServerEvent::Kind>(e.kind);
@@ -412,7 +412,7 @@ std::optional<MapStackContents> Decode(const std::string& path, const std::strin
   return out;
 }
 
-std::optional<MapStackContents> LoadOne(const std::string& path, const MapOptions& map_options, std::string* error) {
+std::optional<RestoredStack> LoadOne(const std::string& path, const MapOptions& map_options, std::string* error) {
   const auto bytes = ReadStackFile(path, error);
   if (!bytes) return std::nullopt;
   return Decode(path, *bytes, map_options, error);
@@ -420,8 +420,8 @@ std::optional<MapStackContents> LoadOne(const std::string& path, const MapOption
 
 }  // namespace
 
-std::optional<MapStackContents> MapPersistence::Load(const std::string& path, const MapOptions& map_options,
-                                                     std::string* error, std::string* warning) {
+std::optional<RestoredStack> MapPersistence::Load(const std::string& path, const MapOptions& map_options,
+                                                  std::string* error, std::string* warning) {
   auto newest = LoadOne(path, map_options, error);
   if (newest) return newest;
   const std::string prev = PreviousGeneration(path);
@@ -435,6 +435,17 @@ std::optional<MapStackContents> MapPersistence::Load(const std::string& path, co
   }
   if (warning) *warning = *error + "; loaded the previous generation " + prev + " instead";
   return previous;
+}
+
+bool SaveBackend(const ServerBackend& backend, const std::string& path, std::string* error) {
+  return MapPersistence::Save(backend.Snapshot(), path, error);
+}
+
+std::unique_ptr<ServerBackend> LoadBackend(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
+                                           ServerOptions options, std::string* error, std::string* warning) {
+  auto restored = MapPersistence::Load(path, options.map, error, warning);
+  if (!restored) return nullptr;
+  return std::make_unique<ServerBackend>(std::move(vocabulary), std::move(options), std::move(*restored));
 }
 
 }  // namespace ccm

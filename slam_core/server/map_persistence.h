@@ -9,33 +9,32 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <vector>
 
-#include "slam_core/server/map_stack.h"
+#include "slam_core/server/map_stack_snapshot.h"
 #include "slam_core/server/server_backend.h"
 
 namespace ccm {
 
-/// What a map stack file holds.
-struct MapStackContents {
-  std::vector<std::shared_ptr<ServerMap>> maps;
-  std::vector<AgentHandler> handlers;  ///< each points to one of `maps`
-  uint64_t next_map_counter = 0;
-  std::vector<ServerEvent> events;
-};
-
 class MapPersistence {
  public:
-  /// While the back-end runs: each map is copied under its shared structure lock; the
-  /// handlers are taken after the maps, and one whose map is not in the file (created, or
-  /// fused into another, while the maps were copied) is left out, so the file always loads
-  /// (that agent's next data opens a new map).
-  static bool Save(const MapStack& stack, const std::vector<ServerEvent>& events, const std::string& path,
-                   std::string* error);
-  /// The newest generation that reads back; when that is path.prev (path itself unreadable
-  /// or corrupt), *warning says why.
-  static std::optional<MapStackContents> Load(const std::string& path, const MapOptions& map_options,
-                                              std::string* error, std::string* warning);
+  /// While the back-end runs: each map of the snapshot is copied under its shared structure
+  /// lock (a map retired meanwhile is left out); a handler whose map is not in the file
+  /// (created, or fused into another, after the maps were taken) is left out too, so the
+  /// file always loads (that agent's next data opens a new map).
+  static bool Save(const MapStackSnapshot& snapshot, const std::string& path, std::string* error);
+  /// The newest generation that reads back, as a stack to start a back-end from; when that
+  /// is path.prev (path itself unreadable or corrupt), *warning says why.
+  static std::optional<RestoredStack> Load(const std::string& path, const MapOptions& map_options,
+                                           std::string* error, std::string* warning);
 };
+
+/// The back-end's maps, handlers and events (ServerBackend::Snapshot()) into `path`.
+bool SaveBackend(const ServerBackend& backend, const std::string& path, std::string* error);
+/// A back-end started from the map stack in `path` (or its previous generation, then
+/// *warning says so); nullptr and *error if neither loads. The place-recognition database is
+/// rebuilt from the keyframes with `vocabulary`.
+std::unique_ptr<ServerBackend> LoadBackend(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
+                                           ServerOptions options, std::string* error,
+                                           std::string* warning = nullptr);
 
 }  // namespace ccm

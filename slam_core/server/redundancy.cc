@@ -1,6 +1,7 @@
 #include "slam_core/server/redundancy.h"
 
 #include <algorithm>
+#include <shared_mutex>
 
 namespace ccm {
 
@@ -56,6 +57,25 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
     step.removed.push_back(nid);
   }
   return step;
+}
+
+RedundancyStage::RedundancyStage(const RedundancyOptions& options, MapStack* stack)
+    : min_map_keyframes_(options.min_map_keyframes), stack_(stack), remover_(options.theta, options.seed) {}
+
+std::vector<KeyframeId> RedundancyStage::Step(const std::function<void(KeyframeId)>& on_removed) {
+  auto maps = stack_->Maps();
+  maps.erase(std::remove_if(maps.begin(), maps.end(),
+                            [&](const auto& m) { return static_cast<int>(m->map().num_keyframes()) < min_map_keyframes_; }),
+             maps.end());
+  if (maps.empty()) return {};
+  const auto smap = maps[next_++ % maps.size()];
+  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+  if (smap->retired()) return {};
+  std::vector<KeyframeId> protect;
+  for (const AgentHandler& h : stack_->HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
+  const RedundancyStep step = remover_.Step(smap.get(), protect);
+  for (const KeyframeId id : step.removed) on_removed(id);
+  return step.removed;
 }
 
 }  // namespace ccm

@@ -5,13 +5,17 @@
 // pose relative to its strongest neighbour, so later data that refers to it still lands and
 // its agent's trajectory keeps it. Never removed: a map's oldest keyframe (gauge), keyframes
 // with loop edges, each handler's newest keyframe. Runs while no global BA is pending.
-// Synchronous; the caller holds the structure lock shared.
+// RedundancyRemover is one step on one map (the caller holds its structure lock shared);
+// RedundancyStage is the back-end's stage around it (which map, which keyframes protected).
 #pragma once
 
+#include <functional>
 #include <random>
 #include <vector>
 
+#include "slam_core/server/map_stack.h"
 #include "slam_core/server/server_map.h"
+#include "slam_core/server/server_options.h"
 
 namespace ccm {
 
@@ -32,6 +36,25 @@ class RedundancyRemover {
  private:
   double theta_;
   std::mt19937_64 rng_;
+};
+
+/// The optimization thread's redundancy step: round-robin over the maps of `stack` with at
+/// least min_map_keyframes keyframes, one RedundancyRemover step on the next of them under its
+/// shared structure lock, every handler's newest keyframe of that map protected.
+/// Synchronous; one thread at a time.
+class RedundancyStage {
+ public:
+  RedundancyStage(const RedundancyOptions& options, MapStack* stack);
+  /// Returns the keyframes removed (often none). `on_removed` is called for each while the
+  /// map's structure lock is still held, so the place-recognition database drops it before
+  /// a loop or fusion could see the map without it.
+  std::vector<KeyframeId> Step(const std::function<void(KeyframeId)>& on_removed);
+
+ private:
+  const int min_map_keyframes_;
+  MapStack* stack_;
+  RedundancyRemover remover_;
+  size_t next_ = 0;  ///< round-robin position over the maps
 };
 
 }  // namespace ccm

@@ -1,9 +1,13 @@
 #include "slam_core/server/server_backend.h"
 
 #include <algorithm>
+#include <shared_mutex>
 
-#include "slam_core/server/map_persistence.h"
+#include "slam_core/server/global_ba.h"
+#include "slam_core/server/loop_closer.h"
+#include "slam_core/server/map_fuser.h"
 #include "slam_core/server/outgoing.h"
+#include "slam_core/server/registration.h"
 
 namespace ccm {
 namespace {
@@ -38,43 +42,43 @@ SharedMapLock LockMapOf(const MapStack& stack, KeyframeId kf) {
   return {};
 }
 
-// Every segment id a batch names (each becomes a server map when registered).
-std::set<uint64_t> SegmentsOf(const AgentBatch& b) {
-  std::set<uint64_t> out;
-  if (b.segment.valid()) out.insert(b.segment.packed());
-  for (const KeyframeData& k : b.keyframes) out.insert(k.segment.packed());
-  for (const MapPointData& m : b.map_points) out.insert(m.segment.packed());
-  for (const KeyframePoseUpdate& u : b.keyframe_updates) out.insert(u.segment.packed());
-  return out;
+BackendScheduler::Limits LimitsOf(const ServerOptions& o) {
+  BackendScheduler::Limits l;
+  l.max_agents = o.max_agents;
+  l.max_batches_per_agent = o.max_queued_batches_per_agent;
+  l.max_bytes_per_agent = o.max_queued_bytes_per_agent;
+  l.max_segments_per_agent = o.max_segments_per_agent;
+  return l;
 }
 
 }  // namespace
 
-const char* ServerEventKindName(ServerEvent::Kind kind) {
-  switch (kind) {
-    case ServerEvent::Kind::kNewMap: return "new_map";
-    case ServerEvent::Kind::kFusion: return "fusion";
-    case ServerEvent::Kind::kLoop: return "loop";
-    case ServerEvent::Kind::kGlobalBa: return "global_ba";
-  }
-  return "?";
-}
-
 ServerBackend::ServerBackend(std::shared_ptr<const Vocabulary> vocabulary, ServerOptions options)
+    : ServerBackend(std::move(vocabulary), std::move(options), RestoredStack{}) {}
+
+ServerBackend::ServerBackend(std::shared_ptr<const Vocabulary> vocabulary, ServerOptions options,
+                             RestoredStack restored)
     : vocabulary_(std::move(vocabulary)),
       options_(std::move(options)),
       start_(Clock::now()),
-      stack_(options_.map),
+      stack_(restored.stack ? std::move(restored.stack) : std::make_shared<MapStack>(options_.map)),
       mapper_(options_.mapping),
-      matcher_(vocabulary_, options_.place, &stack_),
-      redundancy_(options_.redundancy.theta, options_.redundancy.seed) {}
+      matcher_(vocabulary_, options_.place, stack_.get()),
+      scheduler_(LimitsOf(options_)),
+      redundancy_(options_.redundancy, stack_.get()),
+      events_(std::move(restored.events)) {
+  for (const auto& m : stack_->Maps()) {
+    std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
+    for (const auto& kf : m->map().keyframes()) matcher_.AddToDatabase(*kf, m->id());
+  }
+}
 
 ServerBackend::~ServerBackend() { Stop(); }
 
 double ServerBackend::Elapsed() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
 
 void ServerBackend::SetNewAgentCallback(std::function<void(AgentId)> callback) {
-  std::lock_guard<std::mutex> lock(queue_mutex_);
+  std::lock_guard<std::mutex> lock(callback_mutex_);
   on_new_agent_ = std::move(callback);
 }
 
@@ -88,46 +92,21 @@ int ServerBackend::Submit(AgentBatch batch) {
                      [&](const KeyframePoseUpdate& u) { return ValidateKeyframePoseUpdate(u, agent); }, &error);
   rejected += Filter(&batch.map_point_updates,
                      [&](const MapPointPositionUpdate& u) { return ValidateMapPointPositionUpdate(u, agent); }, &error);
-  bool is_new = false;
-  std::function<void(AgentId)> callback;
-  // queue_mutex_ and stats_mutex_ are both leaves: a refusal is decided under the first and
-  // counted under the second, never both held.
-  enum class Refused { kNo, kAgent, kQueueFull, kQueueBytes, kSegments } refused = Refused::kNo;
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    is_new = !queues_.count(agent);
-    if (agent == kServerAgent || (is_new && static_cast<int>(queues_.size()) >= options_.max_agents)) {
-      refused = Refused::kAgent;
-    } else {
-      AgentQueue& q = queues_[agent];
-      if (is_new) q.registration = std::make_unique<AgentRegistration>(agent, &stack_, options_.registration);
-      // Registration opens a map for the segment of every item, not only the batch's.
-      std::set<uint64_t> fresh;
-      for (const uint64_t s : SegmentsOf(batch)) {
-        if (!q.segments.count(s)) fresh.insert(s);
-      }
-      const size_t bytes = ApproxBatchBytes(batch);
-      if (static_cast<int>(q.batches.size()) >= options_.max_queued_batches_per_agent) {
-        refused = Refused::kQueueFull;
-      } else if (!q.batches.empty() && q.bytes + bytes > options_.max_queued_bytes_per_agent) {
-        refused = Refused::kQueueBytes;
-      } else if (static_cast<int>(q.segments.size() + fresh.size()) > options_.max_segments_per_agent) {
-        refused = Refused::kSegments;
-      } else {
-        q.segments.insert(fresh.begin(), fresh.end());
-        if (!batch.empty()) {
-          q.batches.push_back(std::move(batch));
-          q.bytes += bytes;
-        }
-        callback = is_new ? on_new_agent_ : nullptr;
-      }
-    }
-  }
-  if (refused != Refused::kNo) {
+  using Admission = BackendScheduler::Admission;
+  bool first_of_agent = false;
+  // The server's own id is never an agent's: refused like an agent beyond max_agents.
+  const Admission admission =
+      agent == kServerAgent
+          ? Admission::kAgentRefused
+          : scheduler_.Admit(
+                std::move(batch),
+                [&] { return std::make_unique<AgentRegistration>(agent, stack_.get(), options_.registration); },
+                &first_of_agent);
+  if (admission != Admission::kQueued) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    if (refused == Refused::kAgent) {
+    if (admission == Admission::kAgentRefused) {
       ++stats_.batches_rejected;
-    } else if (refused == Refused::kSegments) {
+    } else if (admission == Admission::kSegments) {
       AgentCounters& c = stats_.agents[agent];
       ++c.segments_refused;
       c.last_rejection = "more than max_segments_per_agent (" + std::to_string(options_.max_segments_per_agent) +
@@ -135,7 +114,7 @@ int ServerBackend::Submit(AgentBatch batch) {
     } else {
       AgentCounters& c = stats_.agents[agent];
       ++c.batches_dropped;
-      if (refused == Refused::kQueueBytes) {
+      if (admission == Admission::kQueueBytes) {
         c.last_rejection = "queue over max_queued_bytes_per_agent (" +
                            std::to_string(options_.max_queued_bytes_per_agent >> 20) + " MiB)";
       }
@@ -148,35 +127,22 @@ int ServerBackend::Submit(AgentBatch batch) {
     c.rejected += rejected;
     c.last_rejection = error;
   }
-  queue_cv_.notify_all();
-  if (callback) callback(agent);
+  if (first_of_agent) {
+    std::function<void(AgentId)> callback;
+    {
+      std::lock_guard<std::mutex> lock(callback_mutex_);
+      callback = on_new_agent_;
+    }
+    if (callback) callback(agent);
+  }
   return rejected;
 }
 
 bool ServerBackend::RunHandlerOnce(AgentId agent, std::chrono::milliseconds timeout) {
-  AgentBatch batch;
-  AgentRegistration* reg = nullptr;
-  {
-    std::unique_lock<std::mutex> lock(queue_mutex_);
-    auto ready = [&] {
-      const auto it = queues_.find(agent);
-      return stopping_ || (it != queues_.end() && !it->second.batches.empty() && !it->second.busy);
-    };
-    if (!queue_cv_.wait_for(lock, timeout, ready) || stopping_) return false;
-    AgentQueue& q = queues_.at(agent);
-    batch = std::move(q.batches.front());
-    q.batches.pop_front();
-    q.bytes -= ApproxBatchBytes(batch);
-    q.busy = true;
-    reg = q.registration.get();
-  }
-  ProcessBatch(reg, batch);
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    queues_.at(agent).busy = false;
-  }
-  queue_cv_.notify_all();
-  NotifyIdleChange();
+  const auto work = scheduler_.TakeBatch(agent, timeout);
+  if (!work) return false;
+  ProcessBatch(work->registration, work->batch);
+  scheduler_.BatchDone(agent);
   return true;
 }
 
@@ -191,7 +157,7 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
   double fusion_ms = 0.0, local_ba_ms = 0.0;
   for (const RegisteredKeyframe& r : report.keyframes) {
     const auto t1 = Clock::now();
-    SharedMapLock locked = LockMapOf(stack_, r.id);
+    SharedMapLock locked = LockMapOf(*stack_, r.id);
     if (!locked.map) continue;
     const auto kf = locked.map->map().keyframe(r.id);
     if (!kf) continue;
@@ -241,57 +207,33 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
       if (c.keyframe_ms.size() < kMaxTimingSamples) c.keyframe_ms.push_back(ms);
     }
   }
-  if (!for_place_recognition.empty()) {
-    {
-      std::lock_guard<std::mutex> lock(pr_mutex_);
-      pr_queue_.insert(pr_queue_.end(), for_place_recognition.begin(), for_place_recognition.end());
-    }
-    pr_cv_.notify_all();
-  }
+  scheduler_.QueueForPlaceRecognition(for_place_recognition);
   if (options_.redundancy.enabled && !report.keyframes.empty()) {
-    {
-      std::lock_guard<std::mutex> lock(opt_mutex_);
-      redundancy_budget_ += static_cast<int64_t>(report.keyframes.size());
-    }
-    opt_cv_.notify_all();
+    scheduler_.EarnRedundancySteps(static_cast<int64_t>(report.keyframes.size()));
   }
 }
 
 bool ServerBackend::RunPlaceRecognitionOnce(std::chrono::milliseconds timeout) {
-  KeyframeId kf;
-  {
-    std::unique_lock<std::mutex> lock(pr_mutex_);
-    if (!pr_cv_.wait_for(lock, timeout, [&] { return stopping_ || !pr_queue_.empty(); }) || stopping_) return false;
-    kf = pr_queue_.front();
-    pr_queue_.pop_front();
-    pr_busy_ = true;
-  }
-  if (const auto detection = matcher_.Process(kf)) HandleDetection(*detection);
-  {
-    std::lock_guard<std::mutex> lock(pr_mutex_);
-    pr_busy_ = false;
-  }
-  NotifyIdleChange();
+  const auto kf = scheduler_.TakeKeyframe(timeout);
+  if (!kf) return false;
+  if (const auto detection = matcher_.Process(*kf)) HandleDetection(*detection);
+  scheduler_.KeyframeDone();
   return true;
 }
 
 void ServerBackend::HandleDetection(const PlaceDetection& d) {
-  {
-    std::lock_guard<std::mutex> lock(opt_mutex_);
-    // A running global BA of an involved map is about to be stale: let it stop now.
-    if (ba_running_.valid() && (ba_running_ == d.query_map || ba_running_ == d.candidate_map)) abort_ba_ = true;
-  }
+  scheduler_.AbortGlobalBaOf(d.query_map, d.candidate_map);
   ServerEvent e;
   e.time_s = Elapsed();
   e.agent = d.query.agent();
   e.query = d.query;
   e.candidate = d.candidate;
   e.query_from_candidate = d.query_from_candidate;
-  if (const auto m = stack_.MapHolding(d.query)) {
+  if (const auto m = stack_->MapHolding(d.query)) {
     if (const auto kf = m->map().keyframe(d.query)) e.stamp_ns = kf->stamp_ns();
   }
   if (d.kind == PlaceDetection::Kind::kLoop) {
-    const LoopReport r = CloseLoop(&stack_, d, options_);
+    const LoopReport r = CloseLoop(stack_.get(), d, options_);
     if (!r.closed) return;
     matcher_.OnLoopClosed(r.map);
     e.kind = ServerEvent::Kind::kLoop;
@@ -304,10 +246,10 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.loops;
     }
-    if (options_.optimization.global_ba_after_loop) RequestGlobalBa(r.map);
+    if (options_.optimization.global_ba_after_loop) scheduler_.RequestGlobalBa(r.map);
   } else {
     const FusionReport r =
-        FuseMaps(&stack_, d, [this](MapId absorbed, MapId kept) { matcher_.OnMapsFused(absorbed, kept); });
+        FuseMaps(stack_.get(), d, [this](MapId absorbed, MapId kept) { matcher_.OnMapsFused(absorbed, kept); });
     if (!r.fused) return;
     e.kind = ServerEvent::Kind::kFusion;
     e.map = r.kept;
@@ -321,200 +263,92 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.fusions;
     }
-    {
-      std::lock_guard<std::mutex> lock(opt_mutex_);
-      ba_pending_.erase(r.absorbed);
-    }
-    if (options_.optimization.global_ba_after_fusion) RequestGlobalBa(r.kept);
+    scheduler_.ForgetGlobalBa(r.absorbed);
+    if (options_.optimization.global_ba_after_fusion) scheduler_.RequestGlobalBa(r.kept);
   }
-  if (const auto m = stack_.GetMap(e.map)) e.keyframes = static_cast<int>(m->map().num_keyframes());
+  if (const auto m = stack_->GetMap(e.map)) e.keyframes = static_cast<int>(m->map().num_keyframes());
   AddEvent(e);
 }
 
-void ServerBackend::ScheduleGlobalBa(MapId map) { RequestGlobalBa(map); }
-
-void ServerBackend::RequestGlobalBa(MapId map) {
-  {
-    std::lock_guard<std::mutex> lock(opt_mutex_);
-    ba_pending_.insert(map);
-  }
-  opt_cv_.notify_all();
-}
+void ServerBackend::ScheduleGlobalBa(MapId map) { scheduler_.RequestGlobalBa(map); }
 
 bool ServerBackend::RunOptimizationOnce(std::chrono::milliseconds timeout) { return RunOptimization(timeout, true); }
 
 bool ServerBackend::RunOptimization(std::chrono::milliseconds timeout, bool respect_pause) {
-  MapId map;
-  {
-    std::unique_lock<std::mutex> lock(opt_mutex_);
-    // A global BA may start once its map's pause since the last one is over (duty cycle).
-    auto next_ba = [&]() -> std::optional<std::pair<MapId, Clock::time_point>> {
-      std::optional<std::pair<MapId, Clock::time_point>> best;
-      for (const MapId m : ba_pending_) {
-        const auto it = ba_not_before_.find(m);
-        const Clock::time_point t = respect_pause && it != ba_not_before_.end() ? it->second : Clock::time_point();
-        if (!best || t < best->second) best = std::make_pair(m, t);
-      }
-      return best;
-    };
-    auto ready = [&] {
-      const auto n = next_ba();
-      return stopping_ || redundancy_budget_ > 0 || (n && n->second <= Clock::now());
-    };
-    const auto deadline = Clock::now() + timeout;
-    while (!ready()) {
-      const auto n = next_ba();
-      const auto until = n ? std::min(deadline, n->second) : deadline;
-      if (Clock::now() >= deadline) return false;
-      opt_cv_.wait_until(lock, until);
-    }
-    if (stopping_) return false;
-    opt_busy_ = true;
-    const auto n = next_ba();
-    if (n && n->second <= Clock::now()) {
-      map = n->first;
-      ba_pending_.erase(map);
-      ba_running_ = map;
-      abort_ba_ = false;
-    } else {
-      --redundancy_budget_;
-    }
-  }
-  if (map.valid()) {
-    GlobalBaReport r;
-    if (const auto smap = stack_.GetMap(map)) {
-      GlobalBaOptions o;
-      o.iterations = options_.optimization.global_ba_iterations;
-      o.threads = options_.optimization.global_ba_threads;
-      r = RunGlobalBundleAdjustment(smap, o, &abort_ba_);
-    }
-    const bool again = (r.outcome == GlobalBaReport::Outcome::kAborted || r.outcome == GlobalBaReport::Outcome::kStale) &&
-                       stack_.GetMap(map) != nullptr && !stopping_;
-    {
-      std::lock_guard<std::mutex> lock(opt_mutex_);
-      ba_running_ = MapId();
-      if (again) ba_pending_.insert(map);
-      if (r.outcome == GlobalBaReport::Outcome::kApplied) {
-        const double s = r.snapshot_s + r.solve_s + r.write_back_s;
-        ba_not_before_[map] = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                 std::chrono::duration<double>(options_.optimization.global_ba_pause_factor * s));
-      }
-    }
-    {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      if (r.outcome == GlobalBaReport::Outcome::kApplied) {
-        ++stats_.global_ba_applied;
-        stats_.global_ba_seconds.emplace_back(r.keyframes, r.snapshot_s + r.solve_s + r.write_back_s);
-      }
-      stats_.global_ba_aborted += r.outcome == GlobalBaReport::Outcome::kAborted;
-      stats_.global_ba_stale += r.outcome == GlobalBaReport::Outcome::kStale;
-    }
-    if (r.outcome == GlobalBaReport::Outcome::kApplied) {
-      ServerEvent e;
-      e.kind = ServerEvent::Kind::kGlobalBa;
-      e.time_s = Elapsed();
-      e.map = map;
-      e.keyframes = r.keyframes;
-      e.seconds = r.snapshot_s + r.solve_s + r.write_back_s;
-      e.detail = std::to_string(r.points) + " points, " + std::to_string(r.iterations) + " iterations, rmse " +
-                 std::to_string(r.initial_rmse_px) + " -> " + std::to_string(r.final_rmse_px) + " px, " +
-                 std::to_string(r.keyframes_added_meanwhile) + " keyframes added meanwhile";
-      AddEvent(e);
-    }
+  const auto job = scheduler_.TakeOptimizationJob(timeout, respect_pause);
+  if (!job) return false;
+  if (job->global_ba.valid()) {
+    RunGlobalBa(job->global_ba);
   } else {
     RunRedundancyStep();
   }
-  {
-    std::lock_guard<std::mutex> lock(opt_mutex_);
-    opt_busy_ = false;
-  }
-  opt_cv_.notify_all();
-  NotifyIdleChange();
+  scheduler_.OptimizationDone();
   return true;
 }
 
-bool ServerBackend::RunRedundancyStep() {
-  // Round-robin over the maps large enough to thin out.
-  auto maps = stack_.Maps();
-  maps.erase(std::remove_if(maps.begin(), maps.end(),
-                            [&](const auto& m) {
-                              return static_cast<int>(m->map().num_keyframes()) < options_.redundancy.min_map_keyframes;
-                            }),
-             maps.end());
-  if (maps.empty()) return false;
-  const auto smap = maps[redundancy_next_++ % maps.size()];
-  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
-  if (smap->retired()) return false;
-  std::vector<KeyframeId> protect;
-  for (const AgentHandler& h : stack_.HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
-  const RedundancyStep step = redundancy_.Step(smap.get(), protect);
-  for (const KeyframeId id : step.removed) matcher_.OnKeyframeErased(id);
-  if (!step.removed.empty()) {
-    std::lock_guard<std::mutex> slock(stats_mutex_);
-    stats_.keyframes_removed += static_cast<int64_t>(step.removed.size());
+void ServerBackend::RunGlobalBa(MapId map) {
+  GlobalBaReport r;
+  if (const auto smap = stack_->GetMap(map)) {
+    GlobalBaOptions o;
+    o.iterations = options_.optimization.global_ba_iterations;
+    o.threads = options_.optimization.global_ba_threads;
+    r = RunGlobalBundleAdjustment(smap, o, scheduler_.abort_flag());
   }
-  return !step.removed.empty();
+  const bool applied = r.outcome == GlobalBaReport::Outcome::kApplied;
+  const double seconds = r.snapshot_s + r.solve_s + r.write_back_s;
+  const bool retry = (r.outcome == GlobalBaReport::Outcome::kAborted || r.outcome == GlobalBaReport::Outcome::kStale) &&
+                     stack_->GetMap(map) != nullptr;
+  // Duty cycle: the map's next global BA waits global_ba_pause_factor x this one's time.
+  const auto pause = applied ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                                   options_.optimization.global_ba_pause_factor * seconds))
+                             : Clock::duration::zero();
+  scheduler_.GlobalBaDone(map, retry, pause);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (applied) {
+      ++stats_.global_ba_applied;
+      stats_.global_ba_seconds.emplace_back(r.keyframes, seconds);
+    }
+    stats_.global_ba_aborted += r.outcome == GlobalBaReport::Outcome::kAborted;
+    stats_.global_ba_stale += r.outcome == GlobalBaReport::Outcome::kStale;
+  }
+  if (!applied) return;
+  ServerEvent e;
+  e.kind = ServerEvent::Kind::kGlobalBa;
+  e.time_s = Elapsed();
+  e.map = map;
+  e.keyframes = r.keyframes;
+  e.seconds = seconds;
+  e.detail = std::to_string(r.points) + " points, " + std::to_string(r.iterations) + " iterations, rmse " +
+             std::to_string(r.initial_rmse_px) + " -> " + std::to_string(r.final_rmse_px) + " px, " +
+             std::to_string(r.keyframes_added_meanwhile) + " keyframes added meanwhile";
+  AddEvent(e);
 }
 
-void ServerBackend::Stop() {
-  stopping_ = true;
-  abort_ba_ = true;
-  {
-    std::lock_guard<std::mutex> a(queue_mutex_);
-  }
-  {
-    std::lock_guard<std::mutex> b(pr_mutex_);
-  }
-  {
-    std::lock_guard<std::mutex> c(opt_mutex_);
-  }
-  queue_cv_.notify_all();
-  pr_cv_.notify_all();
-  opt_cv_.notify_all();
-  NotifyIdleChange();
+void ServerBackend::RunRedundancyStep() {
+  const auto removed = redundancy_.Step([this](KeyframeId id) { matcher_.OnKeyframeErased(id); });
+  if (removed.empty()) return;
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.keyframes_removed += static_cast<int64_t>(removed.size());
 }
 
-void ServerBackend::Resume() {
-  stopping_ = false;
-  abort_ba_ = false;
-}
+void ServerBackend::Stop() { scheduler_.Stop(); }
+
+void ServerBackend::Resume() { scheduler_.Resume(); }
 
 void ServerBackend::ProcessAllQueued() {
   for (;;) {
     bool worked = false;
-    for (const AgentId a : agents()) {
+    for (const AgentId a : scheduler_.Agents()) {
       while (RunHandlerOnce(a, std::chrono::milliseconds(0))) worked = true;
     }
     while (RunPlaceRecognitionOnce(std::chrono::milliseconds(0))) worked = true;
     while (RunOptimization(std::chrono::milliseconds(0), /*respect_pause=*/false)) worked = true;
-    if (!worked || stopping_) return;
+    if (!worked || scheduler_.stopping()) return;
   }
 }
 
-bool ServerBackend::Idle() const {
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    for (const auto& [a, q] : queues_) {
-      if (!q.batches.empty() || q.busy) return false;
-    }
-  }
-  {
-    std::lock_guard<std::mutex> lock(pr_mutex_);
-    if (!pr_queue_.empty() || pr_busy_) return false;
-  }
-  std::lock_guard<std::mutex> lock(opt_mutex_);
-  return ba_pending_.empty() && !opt_busy_ && redundancy_budget_ == 0;
-}
-
-void ServerBackend::NotifyIdleChange() {
-  { std::lock_guard<std::mutex> lock(idle_mutex_); }
-  idle_cv_.notify_all();
-}
-
-void ServerBackend::WaitUntilIdle() {
-  std::unique_lock<std::mutex> lock(idle_mutex_);
-  idle_cv_.wait(lock, [this] { return stopping_ || Idle(); });
-}
+void ServerBackend::WaitUntilIdle() { scheduler_.WaitUntilIdle(); }
 
 AgentAcks ServerBackend::TakeAcks(AgentId agent) {
   std::lock_guard<std::mutex> lock(acks_mutex_);
@@ -526,111 +360,32 @@ AgentAcks ServerBackend::TakeAcks(AgentId agent) {
 std::optional<ServerMapData> ServerBackend::Neighbourhood(AgentId agent, KeyframeId reference_kf) const {
   NeighbourhoodOptions o;
   o.keyframes = options_.neighbourhood_k;
-  return AgentNeighbourhood(stack_, agent, reference_kf, o);
+  return AgentNeighbourhood(*stack_, agent, reference_kf, o);
 }
 
-BackendStats ServerBackend::stats() const {
-  BackendStats s;
+BackendStatus ServerBackend::Status() const {
+  BackendStatus s;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    s = stats_;
+    s.stats = stats_;
   }
-  s.place = matcher_.stats();
+  s.stats.place = matcher_.stats();
+  s.queues = scheduler_.Depths();
+  s.agents = scheduler_.Agents();
+  s.idle = scheduler_.Idle();
   return s;
 }
 
-QueueDepths ServerBackend::queue_depths() const {
-  QueueDepths d;
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    for (const auto& [a, q] : queues_) {
-      d.agent_batches[a] = q.batches.size() + (q.busy ? 1 : 0);
-      d.agent_bytes[a] = q.bytes;
-    }
-  }
-  {
-    std::lock_guard<std::mutex> lock(pr_mutex_);
-    d.place_recognition = pr_queue_.size() + (pr_busy_ ? 1 : 0);
-  }
-  std::lock_guard<std::mutex> lock(opt_mutex_);
-  d.global_ba_pending = ba_pending_.size();
-  d.global_ba_running = ba_running_.valid();
-  return d;
-}
-
-std::vector<ServerEvent> ServerBackend::events() const {
+MapStackSnapshot ServerBackend::Snapshot() const {
+  MapStackSnapshot s = MapStackSnapshot::Of(*stack_);
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  return events_;
+  s.events = events_;
+  return s;
 }
 
 void ServerBackend::AddEvent(ServerEvent e) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   events_.push_back(std::move(e));
-}
-
-std::vector<AgentId> ServerBackend::agents() const {
-  std::lock_guard<std::mutex> lock(queue_mutex_);
-  std::vector<AgentId> out;
-  for (const auto& [a, q] : queues_) out.push_back(a);
-  return out;
-}
-
-std::vector<MapSummary> ServerBackend::Maps() const {
-  std::vector<MapSummary> out;
-  for (const auto& m : stack_.Maps()) {
-    MapSummary s;
-    s.id = m->id();
-    s.keyframes = m->map().num_keyframes();
-    s.map_points = m->map().num_map_points();
-    s.anchored = m->anchors().size();
-    for (const AgentHandler& h : stack_.HandlersOfMap(m->id())) s.agents.insert(h.agent);
-    out.push_back(s);
-  }
-  return out;
-}
-
-bool ServerBackend::Save(const std::string& path, std::string* error) const {
-  return MapPersistence::Save(stack_, events(), path, error);
-}
-
-std::unique_ptr<ServerBackend> ServerBackend::Load(const std::string& path, std::shared_ptr<const Vocabulary> vocabulary,
-                                                   ServerOptions options, std::string* error, std::string* warning) {
-  auto contents = MapPersistence::Load(path, options.map, error, warning);
-  if (!contents) return nullptr;
-  auto backend = std::make_unique<ServerBackend>(std::move(vocabulary), std::move(options));
-  backend->Restore(std::move(*contents));
-  return backend;
-}
-
-void ServerBackend::Restore(MapStackContents contents) {
-  for (auto& m : contents.maps) stack_.RestoreMap(std::move(m));
-  for (const AgentHandler& h : contents.handlers) stack_.RestoreHandler(h);
-  stack_.set_next_map_counter(contents.next_map_counter);
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    events_ = std::move(contents.events);
-  }
-  for (const auto& m : stack_.Maps()) {
-    std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
-    for (const auto& kf : m->map().keyframes()) matcher_.AddToDatabase(*kf, m->id());
-  }
-}
-
-std::vector<ServerKeyframePose> ServerBackend::AgentTrajectory(AgentId agent) const {
-  std::vector<ServerKeyframePose> out;
-  for (const auto& m : stack_.Maps()) {
-    std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
-    for (const auto& [id, info] : m->infos()) {
-      const auto kf = id.agent() == agent ? m->map().keyframe(id) : nullptr;
-      if (kf) out.push_back({id, m->id(), info.segment, kf->stamp_ns(), kf->world_from_cam(), true});
-    }
-    for (const auto& [id, anchor] : m->anchors()) {
-      if (id.agent() != agent) continue;
-      if (const auto pose = m->PoseOf(id)) out.push_back({id, m->id(), anchor.segment, anchor.stamp_ns, *pose, false});
-    }
-  }
-  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; });
-  return out;
 }
 
 }  // namespace ccm

@@ -1,6 +1,8 @@
 // A server back-end with hand-built maps for the map view's tests and benchmark: keyframes
 // along a line per agent, points seen by consecutive keyframes (so the Map computes real
-// covisibility edges), written straight into the back-end's map stack. No VO, no vocabulary.
+// covisibility edges). The fixture owns the map stack and starts the back-end from it
+// (ServerBackend's restoring constructor), then keeps editing it as registration would; the
+// back-end runs no stage meanwhile. No VO, no vocabulary.
 #pragma once
 
 #include <memory>
@@ -16,14 +18,17 @@ class ViewBackend {
  public:
   /// `keypoints` per keyframe bounds the points a keyframe can observe.
   explicit ViewBackend(int keypoints = 200)
-      : backend_(std::make_shared<Vocabulary>(), ServerOptions{}), camera_(TestCamera()),
+      : stack_(std::make_shared<MapStack>(ServerOptions{}.map)),
+        backend_(std::make_shared<Vocabulary>(), ServerOptions{}, RestoredStack{stack_, {}}), camera_(TestCamera()),
         pyramid_(std::make_shared<ScalePyramid>(ScalePyramid::Make(8, 1.2))), keypoints_(keypoints) {}
 
   ServerBackend& backend() { return backend_; }
+  /// The stack the back-end reads: what a fusion would edit (Repoint) is done here.
+  MapStack& map_stack() { return *stack_; }
 
   /// The server map of agent `agent`'s first segment (created on first use).
   std::shared_ptr<ServerMap> MapOf(AgentId agent) {
-    return backend_.stack().MapFor(agent, MapId::Make(agent, 1));
+    return stack_->MapFor(agent, MapId::Make(agent, 1));
   }
 
   /// Adds a keyframe of `agent` at x = `x_m` (looking along +z) and `new_points` points seen
@@ -50,7 +55,7 @@ class ViewBackend {
       if (prev.valid() && next_kp_[prev] < keypoints_) map->map().AddObservation(prev, next_kp_[prev]++, mp);
     }
     map->map().UpdateConnections(id);
-    backend_.stack().EditHandler(agent, MapId::Make(agent, 1), [id](AgentHandler* h) {
+    stack_->EditHandler(agent, MapId::Make(agent, 1), [id](AgentHandler* h) {
       h->last_keyframe = id;
       ++h->keyframes;
     });
@@ -59,6 +64,7 @@ class ViewBackend {
   }
 
  private:
+  std::shared_ptr<MapStack> stack_;
   ServerBackend backend_;
   std::shared_ptr<const CameraModel> camera_;
   std::shared_ptr<const ScalePyramid> pyramid_;

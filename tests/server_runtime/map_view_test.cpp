@@ -106,7 +106,7 @@ TEST(MapView, ElementsInTwoMapsDuringAFusionAreNotLostByClients) {
   for (const auto& mp : absorbed->map().map_points()) kept->map().AddMapPoint(mp);
   model.Refresh();  // both maps list agent 1's elements
   client.Apply(Get(model, "/api/map", {{"since", std::to_string(client.version)}}));
-  b.backend().stack().Repoint(absorbed->id(), kept->id(), Sim3());
+  b.map_stack().Repoint(absorbed->id(), kept->id(), Sim3());
   model.Refresh();  // the absorbed map is gone
   client.Apply(Get(model, "/api/map", {{"since", std::to_string(client.version)}}));
 

@@ -40,7 +40,7 @@ TEST(ServerOutputs, EveryMapIsWrittenNotOnlyTheLargest) {
   }
   const report::RunResult r = replay::RunReplay(std::move(in), o, &backend);
   ASSERT_EQ(r.error, "");
-  const std::vector<MapSummary> maps = backend.Maps();
+  const std::vector<MapSummary> maps = backend.Snapshot().Summaries();
   ASSERT_EQ(maps.size(), 2u) << "two rooms, no place recognition: two maps";
 
   const std::string dir = (std::filesystem::temp_directory_path() / ("ccm_server_outputs_" + std::to_string(::getpid()))).string();
@@ -57,7 +57,7 @@ TEST(ServerOutputs, EveryMapIsWrittenNotOnlyTheLargest) {
     Trajectory written;
     ASSERT_TRUE(ReadTumTrajectory(file, &written).ok()) << file;
     std::vector<ServerKeyframePose> expected;
-    for (const auto& p : backend.AgentTrajectory(agent)) {
+    for (const auto& p : backend.Snapshot().AgentTrajectory(agent)) {
       if (p.map == m.id) expected.push_back(p);
     }
     ASSERT_GE(expected.size(), 3u) << "agent " << agent << " sent keyframes";

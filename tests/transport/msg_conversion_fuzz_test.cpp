@@ -335,7 +335,7 @@ TEST(MsgConversionFuzz, HundredThousandHostileMessagesNeverCrashTheBackend) {
   EXPECT_GT(accepted, kTotal / 10);
   EXPECT_GT(rejected, kTotal / 10);
   int64_t backend_rejected = 0;
-  for (const auto& [agent, c] : backend.stats().agents) backend_rejected += c.rejected;
+  for (const auto& [agent, c] : backend.Status().stats.agents) backend_rejected += c.rejected;
   EXPECT_EQ(backend_rejected, 0) << "FromMsg let through what the back-end's validation refuses";
   std::cout << accepted << " accepted, " << rejected << " rejected (" << reasons.size() << " kinds), "
             << refused_batches << " batches refused by the back-end (agents beyond max_agents / agent 0)\n";

@@ -320,7 +320,7 @@ RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const Play
     }
     if (o.threaded) backend->WaitUntilIdle();
     if (o.final_global_ba) {
-      for (const MapSummary& m : backend->Maps()) backend->ScheduleGlobalBa(m.id);
+      for (const MapSummary& m : backend->Snapshot().Summaries()) backend->ScheduleGlobalBa(m.id);
       if (o.threaded) {
         backend->WaitUntilIdle();
       } else {
@@ -328,6 +328,7 @@ RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const Play
       }
     }
   }
+  const MapStackSnapshot maps = backend->Snapshot();
   for (const RecordedAgent& a : rec.agents) {
     AgentRunResult r;
     r.name = a.name;
@@ -340,12 +341,12 @@ RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const Play
     r.vo_keyframes = a.vo_keyframes;
     r.vo_segments = a.vo_segments;
     r.relocalizations = a.relocalizations;
-    r.server_keyframes = backend->AgentTrajectory(a.id);
+    r.server_keyframes = maps.AgentTrajectory(a.id);
     result.agents.push_back(std::move(r));
   }
-  result.events = backend->events();
-  result.maps = backend->Maps();
-  result.stats = backend->stats();
+  result.events = maps.events;
+  result.maps = maps.Summaries();
+  result.stats = backend->Status().stats;
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

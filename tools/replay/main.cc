@@ -24,6 +24,7 @@
 #include "tools/replay/batch_recording.h"
 #include "tools/replay/dataset_spec.h"
 #include "server_runtime/run_report.h"
+#include "slam_core/server/map_persistence.h"
 
 #ifndef CCM_DEFAULT_VOCABULARY
 #define CCM_DEFAULT_VOCABULARY ""
@@ -263,7 +264,7 @@ int main(int argc, char** argv) {
   if (!OpenInputs(a, &inputs, &error)) return Fail(error);
   std::unique_ptr<ccm::ServerBackend> backend;
   if (!a.load_map.empty()) {
-    backend = ccm::ServerBackend::Load(a.load_map, vocab, a.replay.BackendOptions(), &error);
+    backend = ccm::LoadBackend(a.load_map, vocab, a.replay.BackendOptions(), &error);
     if (!backend) return Fail(error);
   } else {
     backend = std::make_unique<ccm::ServerBackend>(vocab, a.replay.BackendOptions());
@@ -292,8 +293,8 @@ int main(int argc, char** argv) {
   if (!result.error.empty()) return Fail(result.error, 1);
   const auto evaluation = ccm::report::EvaluateRun(result);
   PrintSummary(result, evaluation);
-  if (!ccm::report::WriteRunOutputs(a.out, result, evaluation, *backend, &error)) return Fail(error, 1);
-  if (!a.save_map.empty() && !backend->Save(a.save_map, &error)) return Fail(error, 1);
+  if (!ccm::report::WriteRunOutputs(a.out, result, evaluation, backend->Snapshot(), &error)) return Fail(error, 1);
+  if (!a.save_map.empty() && !ccm::SaveBackend(*backend, a.save_map, &error)) return Fail(error, 1);
   if (!a.record.empty()) {
     ccm::replay::RecordAgents(result, &recording);
     if (!ccm::replay::SaveRecording(recording, a.record, &error)) return Fail(error, 1);

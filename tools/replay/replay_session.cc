@@ -90,7 +90,7 @@ class Session {
     }
     backend_->ProcessAllQueued();
     if (o_.final_global_ba) {
-      for (const MapSummary& m : backend_->Maps()) backend_->ScheduleGlobalBa(m.id);
+      for (const MapSummary& m : backend_->Snapshot().Summaries()) backend_->ScheduleGlobalBa(m.id);
       backend_->ProcessAllQueued();
     }
   }
@@ -113,13 +113,14 @@ class Session {
     for (auto& t : threads) t.join();
     backend_->WaitUntilIdle();
     if (o_.final_global_ba) {
-      for (const MapSummary& m : backend_->Maps()) backend_->ScheduleGlobalBa(m.id);
+      for (const MapSummary& m : backend_->Snapshot().Summaries()) backend_->ScheduleGlobalBa(m.id);
       backend_->WaitUntilIdle();
     }
     runner.Stop();
   }
 
   void Collect(RunResult* r) {
+    const MapStackSnapshot maps = backend_->Snapshot();
     for (auto& a : agents_) {
       AgentRunResult ar;
       ar.name = a->input.name;
@@ -141,7 +142,7 @@ class Session {
       const auto by_stamp = [](const auto& x, const auto& y) { return x.stamp_ns < y.stamp_ns; };
       std::sort(ar.vo_keyframes.begin(), ar.vo_keyframes.end(), by_stamp);
       for (auto& [segment, t] : ar.vo_segments) std::sort(t.begin(), t.end(), by_stamp);
-      ar.server_keyframes = backend_->AgentTrajectory(a->input.id);
+      ar.server_keyframes = maps.AgentTrajectory(a->input.id);
       if (!a->input.source->error().empty() && r->error.empty()) r->error = a->input.name + ": " + a->input.source->error();
       r->agents.push_back(std::move(ar));
     }
@@ -214,8 +215,8 @@ class Session {
     p.elapsed_s = std::chrono::duration<double>(now - start_).count();
     p.frames_done = frames_done_;
     p.frames_total = total_;
-    p.maps = backend_->Maps();
-    const BackendStats s = backend_->stats();
+    p.maps = backend_->Snapshot().Summaries();
+    const BackendStats s = backend_->Status().stats;
     p.fusions = s.fusions;
     p.loops = s.loops;
     progress_(p);
@@ -270,9 +271,10 @@ RunResult RunReplay(std::vector<ReplayAgentInput> agents, const ReplayOptions& o
     session.RunDeterministic();
   }
   session.Collect(&result);
-  result.events = backend->events();
-  result.maps = backend->Maps();
-  result.stats = backend->stats();
+  const MapStackSnapshot maps = backend->Snapshot();
+  result.events = maps.events;
+  result.maps = maps.Summaries();
+  result.stats = backend->Status().stats;
   result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return result;
 }

@@ -118,8 +118,8 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
     backend.Submit(b);
     backend.ProcessAllQueued();
   }
-  std::shared_ptr<ServerMap> biggest;
-  for (const auto& m : backend.stack().Maps()) {
+  std::shared_ptr<const ServerMap> biggest;
+  for (const auto& m : backend.Snapshot().maps) {
     if (!biggest || m->map().num_keyframes() > biggest->map().num_keyframes()) biggest = m;
   }
   auto kfs = biggest->map().keyframes();
@@ -181,7 +181,7 @@ void Throughput(const replay::Recording& rec, std::shared_ptr<const Vocabulary> 
         std::this_thread::sleep_until(start + std::chrono::nanoseconds(static_cast<int64_t>(t / speed)));
         backend.Submit(b);
         size_t backlog = 0;
-        for (const auto& [a, q] : backend.queue_depths().agent_batches) backlog += q;
+        for (const auto& [a, q] : backend.Status().queues.agent_batches) backlog += q;
         max_backlog = std::max(max_backlog, backlog);
       }
       const auto last = Clock::now();

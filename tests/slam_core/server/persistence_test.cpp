@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "slam_core/common/checksum.h"
+#include "slam_core/server/map_persistence.h"
 #include "slam_core/server/stack_file.h"
 #include "tests/slam_core/server/server_test_util.h"
 
@@ -34,7 +35,7 @@ void WriteBytes(const std::string& path, const std::string& bytes) {
 }
 
 void ExpectEqualStacks(const ServerBackend& a, const ServerBackend& b) {
-  const auto ma = a.stack().Maps(), mb = b.stack().Maps();
+  const auto ma = a.Snapshot().maps, mb = b.Snapshot().maps;
   ASSERT_EQ(ma.size(), mb.size());
   for (size_t i = 0; i < ma.size(); ++i) {
     const Map& x = ma[i]->map();
@@ -64,7 +65,7 @@ void ExpectEqualStacks(const ServerBackend& a, const ServerBackend& b) {
       EXPECT_EQ(mp->descriptor(), other->descriptor());
     }
   }
-  const auto ha = a.stack().Handlers(), hb = b.stack().Handlers();
+  const auto ha = a.Snapshot().handlers, hb = b.Snapshot().handlers;
   ASSERT_EQ(ha.size(), hb.size());
   for (size_t i = 0; i < ha.size(); ++i) {
     EXPECT_EQ(ha[i].map, hb[i].map);
@@ -85,20 +86,20 @@ TEST(Persistence, SaveLoadGivesAnEqualStackAndRegistrationContinues) {
   for (size_t i = 0; i < half; ++i) backend.Submit(s0.batches[i]);
   for (const AgentBatch& b : s1.batches) backend.Submit(b);
   backend.ProcessAllQueued();
-  ASSERT_GE(backend.Maps().size(), 1u);
+  ASSERT_GE(backend.Snapshot().Summaries().size(), 1u);
 
   const std::string path = TempPath("ccm_stack.bin");
   std::string error;
-  ASSERT_TRUE(backend.Save(path, &error)) << error;
-  auto loaded = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error);
+  ASSERT_TRUE(SaveBackend(backend, path, &error)) << error;
+  auto loaded = LoadBackend(path, SimVocabulary(), ServerOptions{}, &error);
   ASSERT_NE(loaded, nullptr) << error;
   ExpectEqualStacks(backend, *loaded);
 
   // The restarted server takes the rest of the flight: it lands in the same map.
-  const size_t before = loaded->AgentTrajectory(1).size();
+  const size_t before = loaded->Snapshot().AgentTrajectory(1).size();
   for (size_t i = half; i < s0.batches.size(); ++i) loaded->Submit(s0.batches[i]);
   loaded->ProcessAllQueued();
-  const auto traj = loaded->AgentTrajectory(1);
+  const auto traj = loaded->Snapshot().AgentTrajectory(1);
   EXPECT_GT(traj.size(), before + 5);
   for (const auto& p : traj) EXPECT_EQ(p.map, traj.front().map) << "the agent's segment stays in its map";
   std::remove(path.c_str());
@@ -112,22 +113,22 @@ TEST(Persistence, CorruptedTruncatedAndForeignFilesAreRefused) {
   backend.ProcessAllQueued();
   const std::string path = TempPath("ccm_stack_bad.bin");
   std::string error;
-  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  ASSERT_TRUE(SaveBackend(backend, path, &error)) << error;
   const std::string bytes = ReadBytes(path);
   auto write = [&](const std::string& content) { WriteBytes(path, content); };
   std::string flipped = bytes;
   flipped[bytes.size() / 2] ^= 0x10;
   write(flipped);
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   EXPECT_NE(error.find("checksum"), std::string::npos) << error;
   write(bytes.substr(0, bytes.size() - 100));
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   EXPECT_NE(error.find("size mismatch"), std::string::npos) << error;
   write("not a map stack at all");
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   EXPECT_NE(error.find("not a ccm map stack"), std::string::npos) << error;
   std::remove(path.c_str());
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   EXPECT_NE(error.find("cannot open"), std::string::npos) << error;
 }
 
@@ -145,32 +146,32 @@ TEST(Persistence, ACorruptNewestGenerationFallsBackToThePreviousOne) {
   const std::string prev = path + ".prev";
   std::remove(prev.c_str());
   std::string error, warning;
-  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  ASSERT_TRUE(SaveBackend(backend, path, &error)) << error;
   EXPECT_FALSE(std::ifstream(prev).good());  // nothing to keep the first time
-  const size_t first_keyframes = backend.Maps().at(0).keyframes;
+  const size_t first_keyframes = backend.Snapshot().Summaries().at(0).keyframes;
   for (size_t i = half; i < s.batches.size(); ++i) backend.Submit(s.batches[i]);
   backend.ProcessAllQueued();
-  ASSERT_TRUE(backend.Save(path, &error)) << error;
-  const size_t second_keyframes = backend.Maps().at(0).keyframes;
+  ASSERT_TRUE(SaveBackend(backend, path, &error)) << error;
+  const size_t second_keyframes = backend.Snapshot().Summaries().at(0).keyframes;
   ASSERT_GT(second_keyframes, first_keyframes);
 
-  auto newest = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning);
+  auto newest = LoadBackend(path, SimVocabulary(), ServerOptions{}, &error, &warning);
   ASSERT_NE(newest, nullptr) << error;
   EXPECT_TRUE(warning.empty()) << warning;
-  EXPECT_EQ(newest->Maps().at(0).keyframes, second_keyframes);
+  EXPECT_EQ(newest->Snapshot().Summaries().at(0).keyframes, second_keyframes);
 
   std::string bytes = ReadBytes(path);
   bytes[bytes.size() / 2] ^= 0x01;
   WriteBytes(path, bytes);
-  auto fallback = ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning);
+  auto fallback = LoadBackend(path, SimVocabulary(), ServerOptions{}, &error, &warning);
   ASSERT_NE(fallback, nullptr) << error;
   EXPECT_NE(warning.find("checksum"), std::string::npos) << warning;
   EXPECT_NE(warning.find(".prev"), std::string::npos) << warning;
-  EXPECT_EQ(fallback->Maps().at(0).keyframes, first_keyframes);
+  EXPECT_EQ(fallback->Snapshot().Summaries().at(0).keyframes, first_keyframes);
 
   // Both generations unreadable: a clear error naming both.
   WriteBytes(prev, "garbage");
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error, &warning), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error, &warning), nullptr);
   EXPECT_NE(error.find("previous generation too"), std::string::npos) << error;
   std::remove(path.c_str());
   std::remove(prev.c_str());
@@ -187,10 +188,10 @@ TEST(Persistence, AFileWhoseObservationsPointOutsideTheKeypointsIsRefused) {
   backend.ProcessAllQueued();
   const std::string path = TempPath("ccm_stack_crafted.bin");
   std::string error;
-  ASSERT_TRUE(backend.Save(path, &error)) << error;
-  ASSERT_NE(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr) << error;
+  ASSERT_TRUE(SaveBackend(backend, path, &error)) << error;
+  ASSERT_NE(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr) << error;
 
-  const auto smap = backend.stack().Maps().at(0);
+  const auto smap = backend.Snapshot().maps.at(0);
   const auto mp = smap->map().map_points().front();
   std::shared_ptr<KeyFrame> kf;
   for (const auto& k : smap->map().keyframes()) {
@@ -198,9 +199,9 @@ TEST(Persistence, AFileWhoseObservationsPointOutsideTheKeypointsIsRefused) {
   }
   ASSERT_NE(kf, nullptr);
   ASSERT_TRUE(mp->AddObservation(kf->id(), static_cast<int>(kf->num_keypoints()) + 7));  // bypasses the Map
-  ASSERT_TRUE(backend.Save(path, &error)) << error;
+  ASSERT_TRUE(SaveBackend(backend, path, &error)) << error;
   std::remove((path + ".prev").c_str());  // no fallback: the crafted file alone
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   EXPECT_NE(error.find("outside its keyframe's keypoints"), std::string::npos) << error;
   std::remove(path.c_str());
 }
@@ -230,7 +231,7 @@ TEST(Persistence, ASizeFieldClaimingMillionsOfElementsAllocatesNothing) {
   rusage before{}, after{};
   getrusage(RUSAGE_SELF, &before);
   std::string error;
-  EXPECT_EQ(ServerBackend::Load(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
+  EXPECT_EQ(LoadBackend(path, SimVocabulary(), ServerOptions{}, &error), nullptr);
   getrusage(RUSAGE_SELF, &after);
   EXPECT_NE(error.find("cannot decode"), std::string::npos) << error;
   EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 200 * 1024) << "peak RSS grew by " << after.ru_maxrss - before.ru_maxrss

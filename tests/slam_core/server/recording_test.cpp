@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <mutex>
 
+#include "slam_core/server/map_persistence.h"
 #include "tests/slam_core/server/server_test_util.h"
 #include "tools/replay/batch_recording.h"
 #include "server_runtime/run_report.h"
@@ -146,19 +147,19 @@ TEST(ServerRecording, SavedHalfWayTheReloadedStackFusesAndClosesLoopsOn) {
   p1.last = half;
   p1.final_global_ba = false;
   Play(o, p1, nullptr, &first);
-  const auto before = first->stats();
+  const auto before = first->Status().stats;
   const std::string path = (std::filesystem::temp_directory_path() / "ccm_recording_half.bin").string();
   std::string error;
-  ASSERT_TRUE(first->Save(path, &error)) << error;
+  ASSERT_TRUE(SaveBackend(*first, path, &error)) << error;
   o.optimization.global_ba_threads = 1;
-  auto loaded = ServerBackend::Load(path, SimVocabulary(), o, &error);
+  auto loaded = LoadBackend(path, SimVocabulary(), o, &error);
   ASSERT_NE(loaded, nullptr) << error;
   replay::PlayOptions p2;
   p2.first = half;
   const report::RunResult r = replay::PlayRecording(rec, loaded.get(), p2);
   const auto ev = report::EvaluateRun(r);
   std::printf("  before save: %zu maps, %lld fusions, %lld loops; after reload: +%lld fusions, +%lld loops, ATE %.4f m\n",
-              first->Maps().size(), static_cast<long long>(before.fusions), static_cast<long long>(before.loops),
+              first->Snapshot().Summaries().size(), static_cast<long long>(before.fusions), static_cast<long long>(before.loops),
               static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops), ev.collaborative_ate_m.rmse);
   EXPECT_GE(r.stats.fusions + r.stats.loops, 1) << "place recognition works on the reloaded database";
   EXPECT_EQ(ev.maps, 1u);

@@ -73,7 +73,7 @@ TEST(Registration, ServerReproducesTheAgentsKeyframeTrajectory) {
     ASSERT_EQ(backend.Submit(b), 0);
     backend.ProcessAllQueued();
   }
-  const auto server = backend.AgentTrajectory(1);
+  const auto server = backend.Snapshot().AgentTrajectory(1);
   ASSERT_GE(server.size(), s.keyframes.size() * 9 / 10);
   // The segment's first keyframe defines the server map's frame, so server and VO poses are
   // directly comparable; they differ only by the server's refinement and mapping.
@@ -101,7 +101,7 @@ TEST(Registration, ServerReproducesTheAgentsKeyframeTrajectory) {
   const double vo_scale_path = path / align->scale();  // path in VO units
   EXPECT_LT(worst, 0.02 * vo_scale_path) << "server poses stay within 2% of the path of the VO's";
   EXPECT_LT(ate, 0.005 * path) << "ATE " << ate << " m over " << path << " m";
-  const BackendStats st = backend.stats();
+  const BackendStats st = backend.Status().stats;
   EXPECT_EQ(st.agents.at(1).rejected, 0);
   EXPECT_GT(st.agents.at(1).updates_applied, 0) << "the agent's local-BA updates reach the server";
 }
@@ -117,9 +117,9 @@ TEST(Registration, AgentUpdatesStillApplyAfterTheRegistrationRefinement) {
   o.mapping.duplicate_distance_ratio = 0.0;
   ServerBackend backend(SimVocabulary(), o);
   SubmitAll(s, &backend);
-  ASSERT_EQ(backend.stats().loops, 0);
+  ASSERT_EQ(backend.Status().stats.loops, 0);
   std::vector<double> kf_diffs;
-  for (const ServerKeyframePose& p : backend.AgentTrajectory(1)) {
+  for (const ServerKeyframePose& p : backend.Snapshot().AgentTrajectory(1)) {
     for (const KeyframePose& v : s.keyframes) {
       if (v.id == p.id) kf_diffs.push_back((v.world_from_cam.translation() - p.world_from_cam.translation()).norm());
     }
@@ -176,7 +176,7 @@ TEST(Registration, NearDuplicatesSentAsAnchorsLandAtTheirVoPose) {
     ASSERT_EQ(backend.Submit(b), 0);
     backend.ProcessAllQueued();
   }
-  EXPECT_EQ(backend.stats().agents.at(1).keyframes_anchor_only, static_cast<int64_t>(anchors.size()));
+  EXPECT_EQ(backend.Status().stats.agents.at(1).keyframes_anchor_only, static_cast<int64_t>(anchors.size()));
   // Every anchor is in the server's trajectory (not in its map), where the VO put it.
   const double vo_path = PathLengthM([&] {
     std::vector<SE3> poses;
@@ -184,10 +184,10 @@ TEST(Registration, NearDuplicatesSentAsAnchorsLandAtTheirVoPose) {
     return poses;
   }());
   size_t found = 0;
-  for (const ServerKeyframePose& p : backend.AgentTrajectory(1)) {
+  for (const ServerKeyframePose& p : backend.Snapshot().AgentTrajectory(1)) {
     if (!anchors.count(p.id)) continue;
     ++found;
-    const auto smap = backend.stack().MapHolding(p.id);
+    const auto smap = backend.Snapshot().MapHolding(p.id);
     ASSERT_NE(smap, nullptr);
     EXPECT_EQ(smap->map().keyframe(p.id), nullptr);
     for (const KeyframePose& v : s.keyframes) {
@@ -214,14 +214,14 @@ TEST(Registration, ObservationsCarriedByKeyframeLinksReachTheServersPoints) {
   EXPECT_LT(observations_sent, 2 * points) << "observations that keyframe links carry went with the points too";
   ServerBackend backend(SimVocabulary(), ServerOptions{});
   SubmitAll(s, &backend);
-  const auto smap = backend.stack().MapHolding(s.batches.front().keyframes.front().id);
+  const auto smap = backend.Snapshot().MapHolding(s.batches.front().keyframes.front().id);
   ASSERT_NE(smap, nullptr);
   size_t on_server = 0, observed_twice = 0;
   for (const auto& mp : smap->map().map_points()) {
     ++on_server;
     observed_twice += mp->num_observations() >= 2;
   }
-  EXPECT_GE(backend.stats().agents.at(1).points_registered, static_cast<int64_t>(points * 9 / 10));
+  EXPECT_GE(backend.Status().stats.agents.at(1).points_registered, static_cast<int64_t>(points * 9 / 10));
   EXPECT_GE(observed_twice, on_server * 8 / 10) << "links did not reach the points";
 }
 
@@ -252,7 +252,7 @@ TEST(Registration, DelayedKeyframesLinkOnlyPointsThatLeftWithThemOrBefore) {
   // Every observation of a sent point by a sent keyframe in the VO's final map should be on
   // the server (some differ: the server fuses duplicates and culls outliers; the VO goes on
   // after its last batch).
-  const auto smap = backend.stack().MapHolding(s.batches.front().keyframes.front().id);
+  const auto smap = backend.Snapshot().MapHolding(s.batches.front().keyframes.front().id);
   ASSERT_NE(smap, nullptr);
   size_t vo_obs = 0, on_server = 0;
   for (const auto& mp : s.final_map->map_points()) {
@@ -282,7 +282,7 @@ TEST(Registration, PointsArrivingBeforeTheirKeyframeWaitAndLand) {
     backend.Submit(only_keyframes);
     backend.ProcessAllQueued();
   }
-  const BackendStats st = backend.stats();
+  const BackendStats st = backend.Status().stats;
   EXPECT_GE(st.agents.at(1).points_registered, static_cast<int64_t>(points * 95 / 100));
   size_t acked = 0;
   for (const MapPointId id : backend.TakeAcks(1).map_points) acked += id.valid();
@@ -291,7 +291,7 @@ TEST(Registration, PointsArrivingBeforeTheirKeyframeWaitAndLand) {
 
 // Pose of `kf` in the server map holding it after the last batch (nullopt if not in a map).
 std::optional<SE3> ServerPose(const ServerBackend& backend, KeyframeId kf) {
-  for (const ServerKeyframePose& p : backend.AgentTrajectory(kf.agent())) {
+  for (const ServerKeyframePose& p : backend.Snapshot().AgentTrajectory(kf.agent())) {
     if (p.id == kf && p.in_map) return p.world_from_cam;
   }
   return std::nullopt;
@@ -327,7 +327,7 @@ RevisitOutcome RegisterDriftedRevisit() {
   KeyframeData& k = b.keyframes.front();
   RevisitOutcome out;
   const auto pred = ServerPose(backend, k.predecessor);
-  const auto smap = backend.stack().MapHolding(k.predecessor);
+  const auto smap = backend.Snapshot().MapHolding(k.predecessor);
   if (!pred || !smap || k.anchor_only) return out;
   const SE3 placed = *pred * k.pred_from_cam;  // lambda is ~1: the map is the VO's frame
   const double depth = MedianSceneDepth(smap->map(), *smap->map().keyframe(k.predecessor));
@@ -358,7 +358,7 @@ RevisitOutcome RegisterDriftedRevisit() {
   k.features = std::make_shared<const FrameFeatures>(std::move(features));
   backend.Submit(b);
   backend.ProcessAllQueued();
-  out.kept_on_track = backend.stats().agents.at(1).keyframes_kept_on_track;
+  out.kept_on_track = backend.Status().stats.agents.at(1).keyframes_kept_on_track;
   const auto pose = ServerPose(backend, k.id);
   const auto kf = smap->map().keyframe(k.id);
   if (!pose || !kf) return out;
@@ -404,7 +404,7 @@ TEST(Registration, ScaleFactorFollowsAScaleChangeOfTheVo) {
     backend.Submit(b);
     backend.ProcessAllQueued();
   }
-  const auto handlers = backend.stack().HandlersOfAgent(1);
+  const auto handlers = testing::HandlersOf(backend.Snapshot(), 1);
   ASSERT_EQ(handlers.size(), 1u);
   EXPECT_LT(handlers[0].scale, 0.9) << "lambda " << handlers[0].scale << " did not move towards " << 1.0 / k;
   EXPECT_GT(handlers[0].scale, 1.0 / k - 0.05);
@@ -431,7 +431,7 @@ TEST(Submit, MalformedItemsAreCountedAndDroppedTheRestIsProcessed) {
   ServerBackend backend(SimVocabulary(), ServerOptions{});
   EXPECT_EQ(backend.Submit(b), 2);
   backend.ProcessAllQueued();
-  const BackendStats st = backend.stats();
+  const BackendStats st = backend.Status().stats;
   EXPECT_EQ(st.agents.at(1).rejected, 2);
   EXPECT_NE(st.agents.at(1).last_rejection.find("out of range"), std::string::npos);
   EXPECT_EQ(st.agents.at(1).keyframes_registered, static_cast<int64_t>(b.keyframes.size()) - 1);
@@ -446,8 +446,8 @@ TEST(Submit, AgentsBeyondMaxAgentsAreRefused) {
   AgentBatch other;
   other.agent = 2;
   EXPECT_EQ(backend.Submit(other), -1);
-  EXPECT_EQ(backend.stats().batches_rejected, 1);
-  EXPECT_EQ(backend.agents().size(), 1u);
+  EXPECT_EQ(backend.Status().stats.batches_rejected, 1);
+  EXPECT_EQ(backend.Status().agents.size(), 1u);
 }
 
 TEST(Submit, AFullAgentQueueDropsAndCountsInsteadOfGrowing) {
@@ -458,10 +458,10 @@ TEST(Submit, AFullAgentQueueDropsAndCountsInsteadOfGrowing) {
   int refused = 0;
   for (const AgentBatch& b : s.batches) refused += backend.Submit(b) < 0;  // nobody processes
   EXPECT_EQ(refused, static_cast<int>(s.batches.size()) - 3);
-  EXPECT_EQ(backend.queue_depths().agent_batches.at(1), 3u);
-  EXPECT_EQ(backend.stats().agents.at(1).batches_dropped, refused);
+  EXPECT_EQ(backend.Status().queues.agent_batches.at(1), 3u);
+  EXPECT_EQ(backend.Status().stats.agents.at(1).batches_dropped, refused);
   backend.ProcessAllQueued();
-  EXPECT_GT(backend.AgentTrajectory(1).size(), 0u) << "what was queued is processed";
+  EXPECT_GT(backend.Snapshot().AgentTrajectory(1).size(), 0u) << "what was queued is processed";
 }
 
 TEST(Submit, AQueueIsBoundedInBytesAsWellAsInBatches) {
@@ -475,16 +475,16 @@ TEST(Submit, AQueueIsBoundedInBytesAsWellAsInBatches) {
   ServerBackend backend(SimVocabulary(), o);
   int refused = 0;
   for (const AgentBatch& b : s.batches) refused += backend.Submit(b) < 0;  // nobody processes
-  const QueueDepths d = backend.queue_depths();
+  const QueueDepths d = backend.Status().queues;
   std::printf("  %zu batches, %.1f MB; queued %zu batches, %.2f MB; %d refused\n", s.batches.size(), total / 1e6,
               d.agent_batches.at(1), d.agent_bytes.at(1) / 1e6, refused);
   EXPECT_GT(refused, 0);
   EXPECT_LE(d.agent_bytes.at(1), o.max_queued_bytes_per_agent);
   EXPECT_EQ(d.agent_batches.at(1) + refused, s.batches.size());
-  EXPECT_EQ(backend.stats().agents.at(1).batches_dropped, refused);
-  EXPECT_NE(backend.stats().agents.at(1).last_rejection.find("max_queued_bytes_per_agent"), std::string::npos);
+  EXPECT_EQ(backend.Status().stats.agents.at(1).batches_dropped, refused);
+  EXPECT_NE(backend.Status().stats.agents.at(1).last_rejection.find("max_queued_bytes_per_agent"), std::string::npos);
   backend.ProcessAllQueued();
-  EXPECT_EQ(backend.queue_depths().agent_bytes.at(1), 0u) << "the count follows the queue down";
+  EXPECT_EQ(backend.Status().queues.agent_bytes.at(1), 0u) << "the count follows the queue down";
   // Processed, the queue takes batches again.
   EXPECT_EQ(backend.Submit(s.batches.back()), 0);
 }
@@ -506,8 +506,8 @@ TEST(Submit, AnAgentCannotOpenMapSegmentsWithoutEnd) {
     flood.map_points.push_back(p);
   }
   EXPECT_EQ(backend.Submit(flood), -1);
-  EXPECT_EQ(backend.stats().agents.at(1).segments_refused, 1);
-  EXPECT_NE(backend.stats().agents.at(1).last_rejection.find("max_segments_per_agent"), std::string::npos);
+  EXPECT_EQ(backend.Status().stats.agents.at(1).segments_refused, 1);
+  EXPECT_NE(backend.Status().stats.agents.at(1).last_rejection.find("max_segments_per_agent"), std::string::npos);
   // Within the budget: the agent's real stream (one segment) goes through, and so does a
   // batch naming three more; a fifth segment does not.
   for (const AgentBatch& b : s.batches) EXPECT_GE(backend.Submit(b), 0);
@@ -518,10 +518,10 @@ TEST(Submit, AnAgentCannotOpenMapSegmentsWithoutEnd) {
   fifth.agent = 1;
   fifth.segment = MapId::Make(1, 2000);
   EXPECT_EQ(backend.Submit(fifth), -1);
-  EXPECT_EQ(backend.stats().agents.at(1).segments_refused, 2);
+  EXPECT_EQ(backend.Status().stats.agents.at(1).segments_refused, 2);
   backend.ProcessAllQueued();
-  EXPECT_LE(backend.Maps().size(), 4u);
-  EXPECT_GT(backend.AgentTrajectory(1).size(), 10u);
+  EXPECT_LE(backend.Snapshot().Summaries().size(), 4u);
+  EXPECT_GT(backend.Snapshot().AgentTrajectory(1).size(), 10u);
 }
 
 TEST(ServerMap, AnchorOffsetsFollowAScaleCorrectionOfTheirRoot) {

@@ -15,6 +15,7 @@
 #include "slam_core/io/trajectory_io.h"
 #include "tools/replay/dataset_spec.h"
 #include "server_runtime/run_report.h"
+#include "slam_core/server/server_backend.h"
 
 namespace ccm {
 namespace {
@@ -90,7 +91,7 @@ TEST(ReplayReport, WritesEveryMapsTrajectoriesSummaryAndPanels) {
   const std::string dir = (std::filesystem::temp_directory_path() / ("ccm_replay_report_" + std::to_string(::getpid()))).string();
   std::filesystem::remove_all(dir);
   std::string error;
-  ASSERT_TRUE(report::WriteRunOutputs(dir, r, ev, backend, &error)) << error;
+  ASSERT_TRUE(report::WriteRunOutputs(dir, r, ev, backend.Snapshot(), &error)) << error;
   const auto count = [&](const std::string& file) {
     Trajectory t;
     EXPECT_TRUE(ReadTumTrajectory(dir + "/" + file, &t).ok()) << file;

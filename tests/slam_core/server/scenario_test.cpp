@@ -115,7 +115,7 @@ TEST(ServerScenario, Disjoint2NeverFuses) {
 // One agent's keyframe positions in `map` and the ground truth at the same stamps.
 void AgentPositions(const ServerBackend& backend, AgentId agent, MapId map, const Trajectory& gt,
                     std::vector<Eigen::Vector3d>* est, std::vector<Eigen::Vector3d>* truth) {
-  for (const ServerKeyframePose& p : backend.AgentTrajectory(agent)) {
+  for (const ServerKeyframePose& p : backend.Snapshot().AgentTrajectory(agent)) {
     const auto g = testing::GroundTruthAt(gt, p.stamp_ns);
     if (p.map != map || !g) continue;
     est->push_back(p.world_from_cam.translation());
@@ -135,7 +135,7 @@ std::optional<Sim3> AgentAlignment(const ServerBackend& backend, AgentId agent, 
 // One agent's keyframes in the map that holds its last one, Sim(3)-aligned to the ground
 // truth: RMSE in percent of its path.
 std::optional<double> AgentAtePercent(const ServerBackend& backend, AgentId agent, const Trajectory& gt) {
-  const auto poses = backend.AgentTrajectory(agent);
+  const auto poses = backend.Snapshot().AgentTrajectory(agent);
   if (poses.empty()) return std::nullopt;
   std::vector<Eigen::Vector3d> est, truth;
   AgentPositions(backend, agent, poses.back().map, gt, &est, &truth);
@@ -174,7 +174,7 @@ TEST(ServerScenario, RepeatedFusionsAgreeWithGroundTruth) {
   for (const AgentBatch* batch : order) {
     backend.Submit(*batch);
     backend.ProcessAllQueued();
-    const auto events = backend.events();
+    const auto events = backend.Snapshot().events;
     for (; seen_events < events.size(); ++seen_events) {
       if (events[seen_events].kind != ServerEvent::Kind::kFusion) continue;
       ++fusions;
@@ -190,20 +190,20 @@ TEST(ServerScenario, RepeatedFusionsAgreeWithGroundTruth) {
     }
   }
   std::printf("  repeated: %d fusions, %lld candidates verified, %lld inconsistent detections dropped\n", fusions,
-              static_cast<long long>(backend.stats().place.verified),
-              static_cast<long long>(backend.stats().place.inconsistent));
-  std::printf("  fusion candidates (%lld) stopped at:", static_cast<long long>(backend.stats().place.match_candidates));
+              static_cast<long long>(backend.Status().stats.place.verified),
+              static_cast<long long>(backend.Status().stats.place.inconsistent));
+  std::printf("  fusion candidates (%lld) stopped at:", static_cast<long long>(backend.Status().stats.place.match_candidates));
   for (int s = 0; s < kNumVerificationStages; ++s) {
     std::printf(" %s %lld", VerificationStageName(static_cast<VerificationStage>(s)),
-                static_cast<long long>(backend.stats().place.fusion_stopped_at[s]));
+                static_cast<long long>(backend.Status().stats.place.fusion_stopped_at[s]));
   }
   std::printf("\n");
   EXPECT_GE(fusions, 1) << "the two aisles overlap: one correct fusion is expected";
   // No aliased loop either: an accepted false loop (the identical crate one row on) bends
   // the agent's own trajectory by metres; true loops keep it within a fraction of 1 %.
   std::printf("  %lld loops, %lld verified loops rejected as implausible corrections\n",
-              static_cast<long long>(backend.stats().loops),
-              static_cast<long long>(backend.stats().place.implausible_loops));
+              static_cast<long long>(backend.Status().stats.loops),
+              static_cast<long long>(backend.Status().stats.place.implausible_loops));
   for (const auto& [agent, gt] : {std::make_pair(AgentId{1}, &a.ground_truth), std::make_pair(AgentId{2}, &b.ground_truth)}) {
     const auto ate = AgentAtePercent(backend, agent, *gt);
     ASSERT_TRUE(ate) << "agent " << agent;
@@ -249,13 +249,13 @@ TEST(ServerScenario, SegmentAfterTrackingLossEndsInTheFusedMap) {
   const report::RunResult r = replay::RunReplay(std::move(in), o, &backend);
   ASSERT_EQ(r.error, "");
   ASSERT_EQ(r.agents[0].segments, 2) << "the blackout must open a second VO segment";
-  const auto handlers = backend.stack().HandlersOfAgent(1);
+  const auto handlers = testing::HandlersOf(backend.Snapshot(), 1);
   ASSERT_EQ(handlers.size(), 2u) << "one handler per segment";
   EXPECT_EQ(handlers[0].map, handlers[1].map) << "both segments end in one map";
   const report::RunEvaluation ev = report::EvaluateRun(r);
   PrintScores(r, ev);
   EXPECT_EQ(ev.maps, 1u);
-  EXPECT_EQ(ev.agents[0].server_keyframes, backend.AgentTrajectory(1).size()) << "every keyframe is in the final map";
+  EXPECT_EQ(ev.agents[0].server_keyframes, backend.Snapshot().AgentTrajectory(1).size()) << "every keyframe is in the final map";
   EXPECT_LE(ev.collaborative_ate_percent, 0.2);
 }
 

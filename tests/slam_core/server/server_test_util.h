@@ -85,4 +85,13 @@ inline std::optional<SE3> GroundTruthAt(const Trajectory& gt, int64_t stamp_ns) 
   return std::nullopt;
 }
 
+/// The handlers of `agent` (every segment), as the snapshot holds them.
+inline std::vector<AgentHandler> HandlersOf(const MapStackSnapshot& snapshot, AgentId agent) {
+  std::vector<AgentHandler> out;
+  for (const AgentHandler& h : snapshot.handlers) {
+    if (h.agent == agent) out.push_back(h);
+  }
+  return out;
+}
+
 }  // namespace ccm::testing

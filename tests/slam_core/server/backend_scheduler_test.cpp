@@ -1,0 +1,199 @@
+// BackendScheduler on its own: admission limits, one handler per agent at a time, the order
+// of optimization jobs (global BA before redundancy, the per-map pause), aborting a running
+// global BA, idleness and Stop/Resume. No map work: batches carry one point update each.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <thread>
+
+#include "slam_core/server/backend_scheduler.h"
+#include "slam_core/server/map_stack.h"
+#include "slam_core/server/registration.h"
+
+namespace ccm {
+namespace {
+
+using std::chrono::milliseconds;
+
+BackendScheduler::Limits SmallLimits() {
+  BackendScheduler::Limits l;
+  l.max_agents = 2;
+  l.max_batches_per_agent = 3;
+  l.max_bytes_per_agent = size_t{1} << 20;
+  l.max_segments_per_agent = 2;
+  return l;
+}
+
+// A non-empty batch of `agent` in segment `segment` with `updates` point updates.
+AgentBatch Batch(AgentId agent, uint64_t segment = 1, int updates = 1) {
+  AgentBatch b;
+  b.agent = agent;
+  b.segment = MapId::Make(agent, segment);
+  for (int i = 0; i < updates; ++i) b.map_point_updates.push_back({MapPointId::Make(agent, i + 1), KeyframeId(), Eigen::Vector3d::Zero()});
+  return b;
+}
+
+class SchedulerTest : public ::testing::Test {
+ protected:
+  BackendScheduler::Admission Admit(AgentBatch b, bool* first = nullptr) {
+    bool f = false;
+    const AgentId agent = b.agent;
+    const auto r = scheduler_.Admit(
+        std::move(b),
+        [&] {
+          ++registrations_made_;
+          return std::make_unique<AgentRegistration>(agent, &stack_, RegistrationOptions{});
+        },
+        &f);
+    if (first) *first = f;
+    return r;
+  }
+  MapStack stack_{MapOptions{}};
+  BackendScheduler scheduler_{SmallLimits()};
+  int registrations_made_ = 0;
+};
+
+using Admission = BackendScheduler::Admission;
+
+TEST_F(SchedulerTest, AdmissionRefusesBeyondEachLimitAndCreatesOneRegistrationPerAgent) {
+  bool first = false;
+  EXPECT_EQ(Admit(Batch(1), &first), Admission::kQueued);
+  EXPECT_TRUE(first);
+  EXPECT_EQ(Admit(Batch(1), &first), Admission::kQueued);
+  EXPECT_FALSE(first) << "only the agent's first batch starts a handler";
+  EXPECT_EQ(Admit(Batch(1)), Admission::kQueued);
+  EXPECT_EQ(Admit(Batch(1)), Admission::kQueueFull) << "3 batches waiting";
+  EXPECT_EQ(Admit(Batch(2)), Admission::kQueued);
+  EXPECT_EQ(Admit(Batch(3)), Admission::kAgentRefused) << "max_agents 2";
+  EXPECT_EQ(registrations_made_, 2);
+  EXPECT_EQ(scheduler_.Agents(), (std::vector<AgentId>{1, 2}));
+
+  // Segments: agent 2 has segment 1; a second is fine, a third is refused.
+  EXPECT_EQ(Admit(Batch(2, 2)), Admission::kQueued);
+  EXPECT_EQ(Admit(Batch(2, 3)), Admission::kSegments);
+  const QueueDepths d = scheduler_.Depths();
+  EXPECT_EQ(d.agent_batches.at(1), 3u);
+  EXPECT_EQ(d.agent_batches.at(2), 2u);
+}
+
+TEST_F(SchedulerTest, ABatchOverTheByteBoundStillEntersAnEmptyQueue) {
+  const AgentBatch big = Batch(1, 1, 60000);
+  ASSERT_GT(ApproxBatchBytes(big), SmallLimits().max_bytes_per_agent);
+  EXPECT_EQ(Admit(big), Admission::kQueued) << "an agent is never starved by one large batch";
+  EXPECT_EQ(Admit(Batch(1)), Admission::kQueueBytes);
+  EXPECT_EQ(scheduler_.Depths().agent_bytes.at(1), ApproxBatchBytes(big));
+  ASSERT_TRUE(scheduler_.TakeBatch(1, milliseconds(0)));
+  scheduler_.BatchDone(1);
+  EXPECT_EQ(scheduler_.Depths().agent_bytes.at(1), 0u);
+  EXPECT_EQ(Admit(Batch(1)), Admission::kQueued);
+}
+
+TEST_F(SchedulerTest, OneHandlerPerAgentAtATimeInSubmissionOrder) {
+  AgentBatch a = Batch(1), b = Batch(1);
+  a.stamp_ns = 1;
+  b.stamp_ns = 2;
+  Admit(a);
+  Admit(b);
+  Admit(Batch(2));
+  auto first = scheduler_.TakeBatch(1, milliseconds(0));
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->batch.stamp_ns, 1);
+  ASSERT_NE(first->registration, nullptr);
+  EXPECT_EQ(first->registration->agent(), 1);
+  EXPECT_FALSE(scheduler_.TakeBatch(1, milliseconds(20))) << "agent 1 is being handled";
+  EXPECT_TRUE(scheduler_.TakeBatch(2, milliseconds(0))) << "other agents are not held up";
+  scheduler_.BatchDone(1);
+  const auto second = scheduler_.TakeBatch(1, milliseconds(0));
+  ASSERT_TRUE(second);
+  EXPECT_EQ(second->batch.stamp_ns, 2);
+  EXPECT_EQ(second->registration, first->registration);
+}
+
+TEST_F(SchedulerTest, IdleOnlyWhenNothingIsQueuedOrRunning) {
+  EXPECT_TRUE(scheduler_.Idle());
+  Admit(Batch(1));
+  EXPECT_FALSE(scheduler_.Idle());
+  ASSERT_TRUE(scheduler_.TakeBatch(1, milliseconds(0)));
+  EXPECT_FALSE(scheduler_.Idle()) << "taken, not done";
+  scheduler_.QueueForPlaceRecognition({KeyframeId::Make(1, 1)});
+  scheduler_.BatchDone(1);
+  EXPECT_FALSE(scheduler_.Idle()) << "a keyframe waits for place recognition";
+  ASSERT_EQ(scheduler_.TakeKeyframe(milliseconds(0)), KeyframeId::Make(1, 1));
+  EXPECT_EQ(scheduler_.Depths().place_recognition, 1u) << "running counts";
+  scheduler_.KeyframeDone();
+  EXPECT_TRUE(scheduler_.Idle());
+  scheduler_.EarnRedundancySteps(1);
+  EXPECT_FALSE(scheduler_.Idle()) << "an earned redundancy step is work";
+}
+
+TEST_F(SchedulerTest, WaitUntilIdleReturnsOnceAnotherThreadFinishes) {
+  Admit(Batch(1));
+  auto waiter = std::async(std::launch::async, [&] { scheduler_.WaitUntilIdle(); });
+  EXPECT_EQ(waiter.wait_for(milliseconds(50)), std::future_status::timeout);
+  ASSERT_TRUE(scheduler_.TakeBatch(1, milliseconds(0)));
+  scheduler_.BatchDone(1);
+  EXPECT_EQ(waiter.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+}
+
+TEST_F(SchedulerTest, GlobalBaComesBeforeRedundancyAndWaitsOutItsMapsPause) {
+  const MapId m = MapId::Make(0, 1);
+  scheduler_.EarnRedundancySteps(1);
+  scheduler_.RequestGlobalBa(m);
+  auto job = scheduler_.TakeOptimizationJob(milliseconds(0), true);
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->global_ba, m);
+  EXPECT_TRUE(scheduler_.Depths().global_ba_running);
+  scheduler_.GlobalBaDone(m, /*retry=*/false, std::chrono::seconds(60));
+  scheduler_.OptimizationDone();
+
+  scheduler_.RequestGlobalBa(m);
+  job = scheduler_.TakeOptimizationJob(milliseconds(0), true);
+  ASSERT_TRUE(job);
+  EXPECT_FALSE(job->global_ba.valid()) << "the map is paused: the redundancy step goes first";
+  scheduler_.OptimizationDone();
+  EXPECT_FALSE(scheduler_.TakeOptimizationJob(milliseconds(20), true)) << "paused for 60 s";
+  job = scheduler_.TakeOptimizationJob(milliseconds(0), /*respect_pause=*/false);
+  ASSERT_TRUE(job) << "deterministic runs ignore the pause";
+  EXPECT_EQ(job->global_ba, m);
+}
+
+TEST_F(SchedulerTest, ADetectionAbortsOnlyARunningGlobalBaOfItsMaps) {
+  const MapId m1 = MapId::Make(0, 1), m2 = MapId::Make(0, 2), m3 = MapId::Make(0, 3);
+  scheduler_.RequestGlobalBa(m1);
+  scheduler_.RequestGlobalBa(m3);
+  ASSERT_EQ(scheduler_.TakeOptimizationJob(milliseconds(0), true)->global_ba, m1);
+  scheduler_.AbortGlobalBaOf(m2, m3);
+  EXPECT_FALSE(scheduler_.abort_flag()->load()) << "m1 is not involved";
+  scheduler_.AbortGlobalBaOf(m2, m1);
+  EXPECT_TRUE(scheduler_.abort_flag()->load());
+  // Aborted: queued again; a fused-away map's request is forgotten.
+  scheduler_.GlobalBaDone(m1, /*retry=*/true, {});
+  scheduler_.OptimizationDone();
+  scheduler_.ForgetGlobalBa(m3);
+  EXPECT_EQ(scheduler_.Depths().global_ba_pending, 1u);
+  ASSERT_EQ(scheduler_.TakeOptimizationJob(milliseconds(0), true)->global_ba, m1);
+  EXPECT_FALSE(scheduler_.abort_flag()->load()) << "a new run starts unaborted";
+}
+
+TEST_F(SchedulerTest, StopWakesWaitingStagesUntilResume) {
+  auto waiting = std::async(std::launch::async, [&] { return scheduler_.TakeKeyframe(std::chrono::seconds(30)); });
+  std::this_thread::sleep_for(milliseconds(20));
+  const auto t0 = std::chrono::steady_clock::now();
+  scheduler_.Stop();
+  ASSERT_EQ(waiting.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+  EXPECT_FALSE(waiting.get());
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+  EXPECT_TRUE(scheduler_.abort_flag()->load()) << "a running global BA stops too";
+
+  scheduler_.QueueForPlaceRecognition({KeyframeId::Make(1, 1)});
+  EXPECT_FALSE(scheduler_.TakeKeyframe(milliseconds(0))) << "stopped";
+  // A global BA that was aborted by the stop is not queued again.
+  scheduler_.GlobalBaDone(MapId::Make(0, 1), /*retry=*/true, {});
+  EXPECT_EQ(scheduler_.Depths().global_ba_pending, 0u);
+  scheduler_.Resume();
+  EXPECT_EQ(scheduler_.TakeKeyframe(milliseconds(0)), KeyframeId::Make(1, 1));
+}
+
+}  // namespace
+}  // namespace ccm
