@@ -78,14 +78,23 @@ asan() {
   export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
   export LSAN_OPTIONS="suppressions=$ROOT/deploy/lsan.supp"
   local fuzz='MsgConversionFuzz.*:AgentStatusFuzz.*:ServerMessageFuzz.*:KeyframeReassemblyFuzz.*:MapFileFuzz.*'
-  local t filter
+  # Fast DDS 2.9 (Debian) deletes its statistics writers through a base-class pointer with the
+  # wrong size (new-delete-type-mismatch in RTPSWriter::~RTPSWriter, inside libfastrtps). ASan
+  # has no suppression for that kind, so the check is off for the binaries that create DDS
+  # entities (transport_test and the ccm_qos_check it runs); every other binary keeps it.
+  local t filter options
   for t in "${tests[@]}"; do
     filter="-$fuzz"
+    options="$ASAN_OPTIONS"
     case "$t" in
       server_test) filter="-ServerScenario*:ServerRecording*:$fuzz" ;;
-      transport_test) filter="-LoopbackLink.*:FaultInjection.*:$fuzz" ;;
+      transport_test)
+        filter="-LoopbackLink.*:FaultInjection.*:$fuzz"
+        options="$ASAN_OPTIONS:new_delete_type_mismatch=0"
+        ;;
     esac
-    run "asan-$t" "$(find "$B/tests" -name "$t" -type f -executable | head -1)" --gtest_filter="$filter"
+    run "asan-$t" env "ASAN_OPTIONS=$options" "$(find "$B/tests" -name "$t" -type f -executable | head -1)" \
+      --gtest_filter="$filter"
   done
   export CCM_FUZZ_INPUTS="$FUZZ_INPUTS"
   run asan-fuzz-transport "$B/tests/transport/transport_test" \
