@@ -31,24 +31,37 @@
 #include "tests/slam_core/server/server_test_util.h"
 
 // A counting allocator for this test binary: the largest single request while g_track is
-// set. Plain operator new only (arrays and nothrow forms call it); memory itself comes from
-// malloc, so ASan still checks every access.
+// set. Every unaligned form is replaced, so each pair allocates and frees alike (under ASan
+// an unreplaced form would be ASan's own, and mixing the two is an alloc-dealloc mismatch);
+// memory itself comes from malloc, so ASan still checks every access.
 namespace {
 std::atomic<bool> g_track{false};
 std::atomic<size_t> g_largest{0};
-}  // namespace
 
-void* operator new(size_t n) {
+void* CountedAlloc(size_t n) noexcept {
   if (g_track.load(std::memory_order_relaxed)) {
     size_t seen = g_largest.load(std::memory_order_relaxed);
     while (n > seen && !g_largest.compare_exchange_weak(seen, n, std::memory_order_relaxed)) {
     }
   }
-  if (void* p = std::malloc(n ? n : 1)) return p;
+  return std::malloc(n ? n : 1);
+}
+void* CountedAllocOrThrow(size_t n) {
+  if (void* p = CountedAlloc(n)) return p;
   throw std::bad_alloc();
 }
+}  // namespace
+
+void* operator new(size_t n) { return CountedAllocOrThrow(n); }
+void* operator new[](size_t n) { return CountedAllocOrThrow(n); }
+void* operator new(size_t n, const std::nothrow_t&) noexcept { return CountedAlloc(n); }
+void* operator new[](size_t n, const std::nothrow_t&) noexcept { return CountedAlloc(n); }
 void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, size_t) noexcept { std::free(p); }
+void operator delete[](void* p, size_t) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
 
 namespace ccm {
 namespace {
@@ -202,6 +215,10 @@ TEST(MapFileFuzz, MutatedFilesWithAValidChecksumAreRefusedWithAMessageOrLoadVali
   size_t largest = 0;
   std::map<std::string, int> reasons, violations;
   for (int i = 0; i < total; ++i) {
+    if (i > 0 && i % 10000 == 0) {  // long sanitizer runs: where they are
+      std::cout << i << " files so far: " << accepted << " loaded (" << invalid << " invalid), " << refused
+                << " refused, largest allocation " << largest << " bytes" << std::endl;
+    }
     WriteFile(path, mutate.Next());
     error.clear();
     g_largest = 0;
