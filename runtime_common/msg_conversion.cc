@@ -1,4 +1,4 @@
-// Agent -> server types: KeyframeFull, MapPointFull, KeyframeUpdate, MapPointUpdate.
+// Agent -> server types: KeyframeFull, MapPointFull, KeyframeUpdate, MapPointUpdate, AgentStatus.
 #include "runtime_common/msg_conversion.h"
 
 #include <algorithm>
@@ -273,6 +273,32 @@ std::optional<MapPointPositionUpdate> FromMsg(const msg::MapPointUpdate& m, std:
   if (auto e = ValidateMapPointPositionUpdate(u, agent, kLimits); !e.empty()) return reject(e);
   if (segment != nullptr) *segment = seg;
   return u;
+}
+
+std::optional<AgentStatusData> FromMsg(const msg::AgentStatus& m, std::string* error) {
+  constexpr const char* kKind = "status";
+  auto reject = [&](const std::string& what) { return Reject<AgentStatusData>(error, kKind, what); };
+  if (m.protocol_version() != msg::kProtocolVersion) return reject(VersionMismatch(m.protocol_version()));
+  AgentStatusData st;
+  st.agent = m.agent_id();
+  if (st.agent == 0) return reject("agent id 0");
+  if (m.ref_kf_id() != 0) {
+    if (auto e = OwnIdFromMsg(m.ref_kf_id(), st.agent, "reference keyframe", &st.reference_kf); !e.empty()) return reject(e);
+  }
+  if (m.map_segment_id() != 0) {
+    if (auto e = OwnIdFromMsg(m.map_segment_id(), st.agent, "segment", &st.segment); !e.empty()) return reject(e);
+  }
+  if (m.tracking_state() > 3) return reject("tracking state " + Str(m.tracking_state()) + " unknown");
+  st.stamp_ns = m.stamp_ns();
+  st.kfs_created = m.kfs_created();
+  st.kfs_sent = m.kfs_sent();
+  st.kfs_acked = m.kfs_acked();
+  st.kfs_resent = m.kfs_resent();
+  st.kfs_lost = m.kfs_lost();
+  st.mps_sent = m.mps_sent();
+  st.write_failures = m.write_failures();
+  st.tracking_state = m.tracking_state();
+  return st;
 }
 
 }  // namespace ccm::conv

@@ -94,6 +94,23 @@ msg::MapPointUpdate ToMsg(const MapPointPositionUpdate& u, MapId segment);
 std::optional<MapPointPositionUpdate> FromMsg(const msg::MapPointUpdate& m, std::string* error,
                                               MapId* segment = nullptr);
 
+// ---- Agent heartbeat.
+
+/// An agent's heartbeat (AgentStatus), validated: only counters and ids to display and log.
+struct AgentStatusData {
+  AgentId agent = 0;
+  int64_t stamp_ns = 0;
+  KeyframeId reference_kf;  ///< Invalid: none yet
+  MapId segment;            ///< Invalid: none yet
+  uint32_t kfs_created = 0, kfs_sent = 0, kfs_acked = 0, kfs_resent = 0, kfs_lost = 0, mps_sent = 0;
+  uint32_t write_failures = 0;
+  int tracking_state = 0;  ///< 0 not initialized, 1 ok, 2 lost, 3 relocalized
+};
+
+/// Rejects another protocol version, agent 0, a reference keyframe or segment of another
+/// agent (0 meaning none) and an unknown tracking state.
+std::optional<AgentStatusData> FromMsg(const msg::AgentStatus& m, std::string* error);
+
 // ---- Server -> agent.
 
 /// What one ServerToAgent carries, validated.

@@ -197,32 +197,39 @@ bool ServerComm::Intake() {
   return got || data;
 }
 
-void ServerComm::OnStatus(AgentId agent, const msg::AgentStatus& st) {
-  if (st.protocol_version() != msg::kProtocolVersion) {
-    Reject(agent, VersionMismatch("status", st.protocol_version()));
-    return;
+void NoteSegment(MapId segment, AgentLink* link) {
+  if (link->segments.size() < kMaxSegmentsListed || link->segments.count(segment)) {
+    link->segments.insert(segment);
+  } else {
+    ++link->segments_not_listed;
   }
-  const KeyframeId ref(st.ref_kf_id());
-  const MapId segment(st.map_segment_id());
-  if ((ref.valid() && ref.agent() != agent) || (segment.valid() && segment.agent() != agent)) {
-    Reject(agent, "status: reference keyframe or segment of another agent");
+}
+
+void ApplyStatus(const conv::AgentStatusData& st, AgentLink* link) {
+  ++link->status_msgs;
+  if (st.reference_kf.valid()) link->reference_kf = st.reference_kf;
+  if (st.segment.valid()) {
+    link->segment = st.segment;
+    NoteSegment(st.segment, link);
+  }
+  link->kfs_created = st.kfs_created;
+  link->kfs_sent = st.kfs_sent;
+  link->kfs_acked = st.kfs_acked;
+  link->kfs_resent = st.kfs_resent;
+  link->kfs_lost = st.kfs_lost;
+  link->tracking_state = st.tracking_state;
+}
+
+void ServerComm::OnStatus(AgentId agent, const msg::AgentStatus& m) {
+  std::string error;
+  const auto st = conv::FromMsg(m, &error);
+  if (!st) {
+    Reject(agent, error);
     return;
   }
   if (!Admit(agent, "status")) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  AgentLink& link = stats_.agents[agent];
-  ++link.status_msgs;
-  if (ref.valid()) link.reference_kf = ref;
-  if (segment.valid()) {
-    link.segment = segment;
-    link.segments.insert(segment);
-  }
-  link.kfs_created = st.kfs_created();
-  link.kfs_sent = st.kfs_sent();
-  link.kfs_acked = st.kfs_acked();
-  link.kfs_resent = st.kfs_resent();
-  link.kfs_lost = st.kfs_lost();
-  link.tracking_state = st.tracking_state();
+  ApplyStatus(*st, &stats_.agents[agent]);
 }
 
 void ServerComm::OnKeyframe(AgentId agent, const msg::KeyframeFull& m) {
@@ -239,7 +246,7 @@ void ServerComm::OnKeyframe(AgentId agent, const msg::KeyframeFull& m) {
   std::lock_guard<std::mutex> lock(mutex_);
   AgentLink& link = stats_.agents[agent];
   ++link.keyframes;
-  link.segments.insert(segment);
+  NoteSegment(segment, &link);
 }
 
 void ServerComm::OnPoints(AgentId agent, const msg::MapPointBatch& m, BatchSet* batches) {

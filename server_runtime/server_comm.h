@@ -63,6 +63,7 @@ struct AgentLink {
   KeyframeId reference_kf;
   MapId segment;
   std::set<MapId> segments;           ///< every segment seen (a restart or tracking loss adds one)
+  int64_t segments_not_listed = 0;    ///< named beyond kMaxSegmentsListed
   bool alive = false;
   int leaves = 0;                     ///< times it went silent for liveliness_timeout_s
   double last_seen_s = 0.0;           ///< since the comm module started
@@ -70,6 +71,15 @@ struct AgentLink {
   uint32_t kfs_created = 0, kfs_sent = 0, kfs_acked = 0, kfs_resent = 0, kfs_lost = 0;
   int tracking_state = 0;
 };
+
+/// Segments listed per agent: a hostile agent naming a fresh segment in every message must
+/// not grow the server's statistics without end (the back-end refuses data beyond its own
+/// per-agent segment budget, ServerOptions::max_segments_per_agent).
+inline constexpr size_t kMaxSegmentsListed = 256;
+/// Adds `segment` to link->segments, or counts it once the list holds kMaxSegmentsListed.
+void NoteSegment(MapId segment, AgentLink* link);
+/// A validated heartbeat (conv::FromMsg) into what the server knows about the agent.
+void ApplyStatus(const conv::AgentStatusData& status, AgentLink* link);
 
 struct ServerCommStats {
   std::map<AgentId, AgentLink> agents;

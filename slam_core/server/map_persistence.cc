@@ -1,50 +1,19 @@
 #include "slam_core/server/map_persistence.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <set>
 #include <sstream>
 
-#include <cereal/archives/portable_binary.hpp>
-#include <cereal/types/array.hpp>
-#include <cereal/types/utility.hpp>
-
+#include "slam_core/server/map_file_records.h"
 #include "slam_core/server/stack_file.h"
 
 namespace ccm {
 namespace {
 
-using Pose7 = std::array<double, 7>;  // qx qy qz qw tx ty tz
-
-// A vector or string as cereal writes it (size, then the elements: the same bytes), read so
-// that memory grows only with the elements the file really holds: a crafted size field
-// cannot make the loader allocate (cereal would resize to it first). Every vector and
-// string of the records below goes through it.
-template <class C>
-struct Bounded {
-  C& c;
-  template <class A>
-  void save(A& a) const {
-    a(cereal::make_size_tag(static_cast<cereal::size_type>(c.size())));
-    for (const auto& x : c) a(x);
-  }
-  template <class A>
-  void load(A& a) {
-    cereal::size_type n = 0;
-    a(cereal::make_size_tag(n));
-    c.clear();
-    for (cereal::size_type i = 0; i < n; ++i) {  // a short payload throws at its end
-      typename C::value_type x{};
-      a(x);
-      c.push_back(std::move(x));
-    }
-  }
-};
-template <class C>
-Bounded<C> B(C& c) {
-  return {c};
-}
+using namespace map_file;  // NOLINT: the records are this file's own types
 
 Pose7 ToRecord(const SE3& T) {
   const auto& q = T.rotation();
@@ -54,126 +23,14 @@ Pose7 ToRecord(const SE3& T) {
 SE3 FromRecord(const Pose7& p) {
   return SE3(Eigen::Quaterniond(p[3], p[0], p[1], p[2]), Eigen::Vector3d(p[4], p[5], p[6]));
 }
-
-struct CameraRecord {
-  int type = 0, width = 0, height = 0;
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::vector<double> distortion;
-  template <class A>
-  void serialize(A& a) {
-    a(type, width, height, fx, fy, cx, cy, B(distortion));
-  }
-  bool operator<(const CameraRecord& o) const {
-    return std::tie(type, width, height, fx, fy, cx, cy, distortion) <
-           std::tie(o.type, o.width, o.height, o.fx, o.fy, o.cx, o.cy, o.distortion);
-  }
-};
-
-struct InfoRecord {
-  uint64_t segment = 0, predecessor = 0, parent = 0;
-  Pose7 pred_from_cam{}, parent_from_cam{}, segment_from_cam{};
-  bool settled = false;
-  template <class A>
-  void serialize(A& a) {
-    a(segment, predecessor, parent, pred_from_cam, parent_from_cam, segment_from_cam, settled);
-  }
-};
-
-struct KeyframeRecord {
-  uint64_t id = 0;
-  int64_t stamp_ns = 0;
-  uint32_t camera = 0;  // index into StackRecord::cameras
-  int levels = 8;
-  double scale_factor = 1.2;
-  std::vector<float> kp;  // u v angle response per keypoint
-  std::vector<int8_t> kp_level;
-  std::vector<std::array<uint8_t, 32>> descriptors;
-  std::vector<uint64_t> map_points;  // per keypoint, 0 = none
-  Pose7 pose{};
-  uint64_t parent = 0;
-  std::vector<uint64_t> children, loop_edges;
-  std::vector<std::pair<uint64_t, int>> covisibility;
-  bool has_info = false;
-  InfoRecord info;
-  template <class A>
-  void serialize(A& a) {
-    a(id, stamp_ns, camera, levels, scale_factor, B(kp), B(kp_level), B(descriptors), B(map_points), pose, parent,
-      B(children), B(loop_edges), B(covisibility), has_info, info);
-  }
-};
-
-struct PointRecord {
-  uint64_t id = 0, reference = 0;
-  std::array<double, 3> position{}, normal{};
-  std::array<uint8_t, 32> descriptor{};
-  double min_distance = 0, max_distance = 0;
-  std::vector<std::pair<uint64_t, int>> observations;
-  template <class A>
-  void serialize(A& a) {
-    a(id, reference, position, normal, descriptor, min_distance, max_distance, B(observations));
-  }
-};
-
-struct AnchorRecord {
-  uint64_t id = 0, base = 0, segment = 0;
-  Pose7 base_from_cam{};
-  int64_t stamp_ns = 0;
-  template <class A>
-  void serialize(A& a) {
-    a(id, base, segment, base_from_cam, stamp_ns);
-  }
-};
-
-struct MapRecord {
-  uint64_t id = 0, generation = 0;
-  std::vector<KeyframeRecord> keyframes;
-  std::vector<PointRecord> points;
-  std::vector<AnchorRecord> anchors;
-  std::vector<std::pair<uint64_t, uint64_t>> replaced;
-  template <class A>
-  void serialize(A& a) {
-    a(id, generation, B(keyframes), B(points), B(anchors), B(replaced));
-  }
-};
-
-struct HandlerRecord {
-  uint16_t agent = 0;
-  uint64_t segment = 0, map = 0, last_keyframe = 0;
-  double s = 1.0;
-  std::array<double, 7> sim{};  // qx qy qz qw tx ty tz of map_from_segment (scale in s)
-  double scale = 1.0;
-  int64_t keyframes = 0;
-  template <class A>
-  void serialize(A& a) {
-    a(agent, segment, map, last_keyframe, s, sim, scale, keyframes);
-  }
-};
-
-struct EventRecord {
-  int kind = 0;
-  double time_s = 0, seconds = 0;
-  int64_t stamp_ns = 0;
-  uint16_t agent = 0;
-  uint64_t map = 0, other_map = 0, query = 0, candidate = 0;
-  int keyframes = 0;
-  std::string detail;
-  template <class A>
-  void serialize(A& a) {
-    a(kind, time_s, seconds, stamp_ns, agent, map, other_map, query, candidate, keyframes, B(detail));
-  }
-};
-
-struct StackRecord {
-  uint64_t next_map = 1;
-  std::vector<CameraRecord> cameras;
-  std::vector<MapRecord> maps;
-  std::vector<HandlerRecord> handlers;
-  std::vector<EventRecord> events;
-  template <class A>
-  void serialize(A& a) {
-    a(next_map, B(cameras), B(maps), B(handlers), B(events));
-  }
-};
+bool Finite(const double* x, size_t n) {
+  return std::all_of(x, x + n, [](double v) { return std::isfinite(v); });
+}
+// Saved rotations are unit quaternions (to rounding); anything else was not written by us,
+// and a zero or non-finite one would poison every pose computed from it.
+bool ValidRecord(const Pose7& p) {
+  return Finite(p.data(), p.size()) && std::abs(std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]) - 1.0) < 1e-6;
+}
 
 CameraRecord ToRecord(const CameraIntrinsics& c) {
   return {static_cast<int>(c.type), c.width_px, c.height_px, c.fx, c.fy, c.cx, c.cy, c.distortion};
@@ -236,8 +93,14 @@ MapRecord ToRecord(const ServerMap& smap, std::map<CameraRecord, uint32_t>* came
   return r;
 }
 
+// Keyframe and point ids of the maps read before (one set each: the two id spaces overlap);
+// an id is in one map only.
+struct SeenIds {
+  std::set<uint64_t> keyframes, points;
+};
+
 std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& options,
-                                      const std::vector<std::shared_ptr<const CameraModel>>& cameras,
+                                      const std::vector<std::shared_ptr<const CameraModel>>& cameras, SeenIds* seen,
                                       std::string* error) {
   auto smap = std::make_shared<ServerMap>(MapId(r.id), options);
   Map& map = smap->map();
@@ -245,9 +108,28 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
   for (const KeyframeRecord& k : r.keyframes) {
     const size_t n = k.kp_level.size();
     if (k.camera >= cameras.size() || k.kp.size() != 4 * n || k.descriptors.size() != n || k.map_points.size() != n ||
-        k.levels < 1 || k.levels > 16 || !(k.scale_factor > 1.0)) {
+        k.levels < 1 || k.levels > 16 || !(k.scale_factor > 1.0 && k.scale_factor <= 2.0)) {
       *error = "keyframe " + std::to_string(k.id) + " is inconsistent";
       return nullptr;
+    }
+    if (!KeyframeId(k.id).valid() || !seen->keyframes.insert(k.id).second) {
+      *error = "keyframe id " + std::to_string(k.id) + " invalid or repeated";
+      return nullptr;
+    }
+    if (!ValidRecord(k.pose) || (k.has_info && !(ValidRecord(k.info.pred_from_cam) && ValidRecord(k.info.parent_from_cam) &&
+                                                 ValidRecord(k.info.segment_from_cam)))) {
+      *error = "keyframe " + std::to_string(k.id) + " has a non-finite pose or a rotation that is not a unit quaternion";
+      return nullptr;
+    }
+    // Matching puts keypoints into image grid cells: they must lie in the image (as on the wire).
+    const CameraModel& cam = *cameras[k.camera];
+    for (size_t i = 0; i < n; ++i) {
+      const float* q = &k.kp[4 * i];
+      if (!(q[0] >= 0 && q[0] <= cam.width() && q[1] >= 0 && q[1] <= cam.height() && std::isfinite(q[2]) &&
+            std::isfinite(q[3]))) {
+        *error = "keyframe " + std::to_string(k.id) + ": keypoint " + std::to_string(i) + " outside the image or not finite";
+        return nullptr;
+      }
     }
     // Out-of-range levels would index the scale pyramid out of bounds.
     if (std::any_of(k.kp_level.begin(), k.kp_level.end(), [&](int8_t l) { return l < 0 || l >= k.levels; })) {
@@ -278,6 +160,15 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
     }
   }
   for (const PointRecord& p : r.points) {
+    if (!MapPointId(p.id).valid() || !seen->points.insert(p.id).second) {
+      *error = "map point id " + std::to_string(p.id) + " invalid or repeated";
+      return nullptr;
+    }
+    if (!Finite(p.position.data(), 3) || !Finite(p.normal.data(), 3) ||
+        !(p.min_distance >= 0 && p.max_distance >= p.min_distance && std::isfinite(p.max_distance))) {
+      *error = "map point " + std::to_string(p.id) + " has a non-finite position or invalid distances";
+      return nullptr;
+    }
     auto mp = std::make_shared<MapPoint>(MapPointId(p.id), Eigen::Vector3d(p.position[0], p.position[1], p.position[2]),
                                          KeyframeId(p.reference), p.descriptor);
     mp->SetAppearance(p.descriptor, Eigen::Vector3d(p.normal[0], p.normal[1], p.normal[2]), p.min_distance, p.max_distance);
@@ -295,6 +186,10 @@ std::shared_ptr<ServerMap> FromRecord(const MapRecord& r, const MapOptions& opti
     map.AddMapPoint(mp);
   }
   for (const AnchorRecord& a : r.anchors) {
+    if (!ValidRecord(a.base_from_cam)) {
+      *error = "anchor " + std::to_string(a.id) + " has an invalid pose";
+      return nullptr;
+    }
     smap->AddAnchor(KeyframeId(a.id), {KeyframeId(a.base), FromRecord(a.base_from_cam), a.stamp_ns, MapId(a.segment)});
   }
   for (const auto& [from, to] : r.replaced) smap->RecordReplacement(MapPointId(from), MapPointId(to));
@@ -368,8 +263,20 @@ std::optional<RestoredStack> Decode(const std::string& path, const std::string& 
   RestoredStack out;
   out.stack = std::make_shared<MapStack>(map_options);
   std::set<uint64_t> maps;
+  SeenIds seen_ids;
+  if (rec.next_map > MapId::kCounterMask) {
+    *error = path + ": next map counter beyond the id space";
+    return std::nullopt;
+  }
   for (const MapRecord& m : rec.maps) {
-    auto smap = FromRecord(m, map_options, cameras, error);
+    // New maps get MapId::Make(0, next_map++): a map outside that range, or twice in the
+    // file, would collide with one created later.
+    const MapId id(m.id);
+    if (id.agent() != kServerAgent || !id.valid() || id.counter() >= rec.next_map || maps.count(m.id)) {
+      *error = path + ": map id " + std::to_string(m.id) + " repeated or outside the server's map ids";
+      return std::nullopt;
+    }
+    auto smap = FromRecord(m, map_options, cameras, &seen_ids, error);
     if (!smap) {
       *error = path + ": " + *error;
       return std::nullopt;
@@ -387,6 +294,11 @@ std::optional<RestoredStack> Decode(const std::string& path, const std::string& 
                               Eigen::Vector3d(h.sim[4], h.sim[5], h.sim[6]));
     a.scale = h.scale;
     a.keyframes = h.keyframes;
+    if (!Finite(h.sim.data(), h.sim.size()) || !(h.s > 0 && std::isfinite(h.s)) || !(h.scale > 0 && std::isfinite(h.scale)) ||
+        !ValidRecord(h.sim)) {
+      *error = path + ": handler of agent " + std::to_string(h.agent) + " has an invalid Sim(3) or scale";
+      return std::nullopt;
+    }
     if (!maps.count(a.map.packed())) {
       *error = path + ": handler of agent " + std::to_string(h.agent) + " points to a missing map";
       return std::nullopt;
@@ -395,6 +307,10 @@ std::optional<RestoredStack> Decode(const std::string& path, const std::string& 
   }
   out.stack->set_next_map_counter(rec.next_map);
   for (const EventRecord& e : rec.events) {
+    if (e.kind < 0 || e.kind > static_cast<int>(ServerEvent::Kind::kGlobalBa)) {
+      *error = path + ": event kind " + std::to_string(e.kind) + " unknown";
+      return std::nullopt;
+    }
     ServerEvent ev;
     ev.kind = static_cast<ServerEvent::Kind>(e.kind);
     ev.time_s = e.time_s;
