@@ -62,9 +62,9 @@ TEST(ThreadedPipeline, AgentsStagesMapViewAndAutosaveRunTogetherConsistently) {
       const uint64_t v = view.Latest()->version;
       version_went_back |= v < last_version;
       last_version = v;
-      (void)backend.stats();
+      (void)backend.Status();
       std::string e, w;
-      if (!backend.Save(path, &e)) {
+      if (!SaveBackend(backend, path, &e)) {
         save_error = e;
       } else {
         ++saves;
@@ -91,7 +91,7 @@ TEST(ThreadedPipeline, AgentsStagesMapViewAndAutosaveRunTogetherConsistently) {
   }
   view.Refresh();
   size_t in_maps = 0;
-  for (const MapSummary& m : backend.Maps()) in_maps += m.keyframes;
+  for (const MapSummary& m : backend.Snapshot().Summaries()) in_maps += m.keyframes;
   EXPECT_EQ(view.Latest()->keyframes.size(), in_maps) << "the view shows every keyframe of the maps";
   std::cout << refreshes << " view refreshes, " << saves << " autosaves (all load back) while " << registered
             << " keyframes were registered\n";

@@ -5,7 +5,7 @@
 // here, independently of the loader (what optimization, matching and registration index or
 // compute with: levels, keypoints, observations, finite poses and positions, handlers, ids);
 // no single allocation above kAllocationCap while loading. A sample of the accepted files
-// also goes through ServerBackend::Load (the place-recognition database is rebuilt from the
+// also goes through LoadBackend (the place-recognition database is rebuilt from the
 // keyframes) and is saved and loaded again. Inputs: CCM_FUZZ_INPUTS, 2,000 in the normal run;
 // deploy/run-sanitizer-tests.sh runs 100,000 under ASan + UBSan.
 #include <gtest/gtest.h>
@@ -77,7 +77,9 @@ bool UnitRotation(const Eigen::Quaterniond& q) {
 bool ValidPose(const SE3& T) { return UnitRotation(T.rotation()) && T.translation().allFinite(); }
 
 // The first reason the loaded contents are unusable, or "" when they are valid.
-std::string Violation(const MapStackContents& c) {
+std::string Violation(const RestoredStack& restored) {
+  MapStackSnapshot c = MapStackSnapshot::Of(*restored.stack);
+  c.events = restored.events;
   std::set<MapId> maps;
   std::set<KeyframeId> keyframes;
   std::set<MapPointId> points;
@@ -180,11 +182,11 @@ TEST(MapFileFuzz, MutatedFilesWithAValidChecksumAreRefusedWithAMessageOrLoadVali
     for (size_t i = 0; i < std::min<size_t>(3, stream.batches.size()); ++i) backend.Submit(stream.batches[i]);
   }
   backend.ProcessAllQueued();
-  ASSERT_GE(backend.Maps().size(), 2u);
+  ASSERT_GE(backend.Snapshot().Summaries().size(), 2u);
   const std::string base_path = TempPath("ccm_fuzz_base.bin"), path = TempPath("ccm_fuzz_input.bin");
   const std::string resaved = TempPath("ccm_fuzz_resaved.bin");
   std::string error, warning;
-  ASSERT_TRUE(backend.Save(base_path, &error)) << error;
+  ASSERT_TRUE(SaveBackend(backend, base_path, &error)) << error;
   const std::string file = [&] {
     std::ifstream in(base_path, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
@@ -205,8 +207,8 @@ TEST(MapFileFuzz, MutatedFilesWithAValidChecksumAreRefusedWithAMessageOrLoadVali
   ASSERT_EQ(Violation(*base), "");
   const size_t base_largest = g_largest;
   size_t keyframes = 0;
-  for (const auto& m : base->maps) keyframes += m->map().num_keyframes();
-  std::cout << "base file: " << file.size() << " bytes, " << fields->size() << " fields, " << base->maps.size()
+  for (const auto& m : base->stack->Maps()) keyframes += m->map().num_keyframes();
+  std::cout << "base file: " << file.size() << " bytes, " << fields->size() << " fields, " << base->stack->num_maps()
             << " maps, " << keyframes << " keyframes, largest allocation " << base_largest << " bytes\n";
 
   const int total = testing::FuzzInputs(2000);
@@ -245,14 +247,14 @@ TEST(MapFileFuzz, MutatedFilesWithAValidChecksumAreRefusedWithAMessageOrLoadVali
     // start-up (database rebuilt), a save and a reload.
     if (accepted % std::max(50, total / 200) == 1) {
       ++backend_loads;
-      auto restored = ServerBackend::Load(path, testing::SimVocabulary(), ServerOptions{}, &error);
+      auto restored = LoadBackend(path, testing::SimVocabulary(), ServerOptions{}, &error);
       ASSERT_NE(restored, nullptr) << "accepted by MapPersistence, refused by the back-end: " << error;
-      ASSERT_TRUE(restored->Save(resaved, &error)) << error;
+      ASSERT_TRUE(SaveBackend(*restored, resaved, &error)) << error;
       ASSERT_TRUE(MapPersistence::Load(resaved, MapOptions{}, &error, &warning)) << error;
     }
   }
   std::cout << total << " files: " << accepted << " loaded (" << invalid << " of them invalid), " << refused << " refused (" << reasons.size()
-            << " kinds), " << backend_loads << " also through ServerBackend::Load and a re-save; largest allocation "
+            << " kinds), " << backend_loads << " also through LoadBackend and a re-save; largest allocation "
             << largest << " bytes\n";
   for (const auto& [reason, count] : reasons) std::cout << "  " << count << "  " << reason << "\n";
   for (const auto& [v, count] : violations) std::cout << "  ACCEPTED INVALID " << count << "  " << v << "\n";
