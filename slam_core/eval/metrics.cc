@@ -161,11 +161,12 @@ ScaleDrift ComputeScaleDrift(const std::vector<SE3>& gt, const std::vector<SE3>&
     first = i;
     path = 0.0;
   }
-  if (result.windows.size() >= 2) {
-    const auto [lo, hi] = std::minmax_element(result.windows.begin(), result.windows.end(),
-                                              [](const ScaleWindow& a, const ScaleWindow& b) { return a.scale < b.scale; });
-    result.max_over_min = hi->scale / lo->scale;
-  }
+  if (result.windows.empty()) return result;
+  const auto [lo, hi] = std::minmax_element(result.windows.begin(), result.windows.end(),
+                                            [](const ScaleWindow& a, const ScaleWindow& b) { return a.scale < b.scale; });
+  result.min_scale = lo->scale;
+  result.max_scale = hi->scale;
+  if (result.windows.size() >= 2) result.max_over_min = hi->scale / lo->scale;
   return result;
 }
 

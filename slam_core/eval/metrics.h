@@ -37,6 +37,7 @@ struct ScaleWindow {
 };
 struct ScaleDrift {
   std::vector<ScaleWindow> windows;
+  double min_scale = 0.0, max_scale = 0.0;  ///< over the windows (0 without any)
   /// Largest over smallest window scale (1: no drift); 0 with fewer than two windows.
   double max_over_min = 0.0;
 };

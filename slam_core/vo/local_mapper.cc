@@ -99,7 +99,12 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
   const SE3 kf_wc = kf->world_from_cam();
   solvers::TriangulationOptions tri;
   tri.focal_px = kf->camera().intrinsics().fx;
+  // Parallax each pyramid level needs, as a cosine: once per keyframe, not per match.
   const double min_cos = std::cos(o.min_triangulation_parallax_deg * M_PI / 180.0);
+  std::vector<double> max_cos_at_level(kf->pyramid().scale.size());
+  for (size_t l = 0; l < max_cos_at_level.size(); ++l) {
+    max_cos_at_level[l] = std::min(min_cos, std::cos(o.triangulation_parallax_sigmas * kf->pyramid().scale[l] / tri.focal_px));
+  }
   for (const KeyframeId nid : kf->BestCovisible(o.triangulation_neighbours)) {
     const auto n = map->keyframe(nid);
     if (!n || n->bad()) continue;
@@ -111,7 +116,7 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
       if (kf->MapPointAt(i).valid() || n->MapPointAt(j).valid()) continue;
       const int level = std::max(kf->features().keypoints[i].level, n->features().keypoints[j].level);
       tri.max_error_px = 2.45 * kf->pyramid().scale[level];
-      tri.max_cos_parallax = std::min(min_cos, std::cos(o.triangulation_parallax_sigmas * kf->pyramid().scale[level] / tri.focal_px));
+      tri.max_cos_parallax = max_cos_at_level[level];
       const auto r = solvers::TriangulateTwoView(kf->bearing(i), n->bearing(j), n_from_kf, tri);
       if (!r.ok()) continue;
       const Eigen::Vector3d p_w = kf_wc * *r.point;

@@ -74,15 +74,11 @@ std::string FormatTable(const EvalReport& report, const EvalOptions& options) {
         out += Line("%-16s %7d (path shorter than one window)\n", a.name.c_str(), 0);
         continue;
       }
-      double lo = w.front().scale, hi = lo;
       std::string each;
-      for (const ScaleWindow& x : w) {
-        lo = std::min(lo, x.scale);
-        hi = std::max(hi, x.scale);
-        each += Line(" %.2f", x.scale);
-      }
+      for (const ScaleWindow& x : w) each += Line(" %.2f", x.scale);
       out += Line("%-16s %7zu %8.3f %8.3f %8.3f %8.3f %8.3f ", a.name.c_str(), w.size(), w.front().scale,
-                  w.back().scale, lo, hi, a.scale_drift.max_over_min) + each + "\n";
+                  w.back().scale, a.scale_drift.min_scale, a.scale_drift.max_scale, a.scale_drift.max_over_min) +
+             each + "\n";
     }
   }
   return out;
