@@ -41,10 +41,20 @@ BackendScheduler::Admission BackendScheduler::Admit(
       if (!q.segments.count(s)) fresh.insert(s);
     }
     const size_t bytes = ApproxBatchBytes(batch);
-    if (static_cast<int>(q.batches.size()) >= limits_.max_batches_per_agent) return Admission::kQueueFull;
-    if (!q.batches.empty() && q.bytes + bytes > limits_.max_bytes_per_agent) return Admission::kQueueBytes;
-    if (static_cast<int>(q.segments.size() + fresh.size()) > limits_.max_segments_per_agent) {
-      return Admission::kSegments;
+    Admission refusal = Admission::kQueued;
+    if (static_cast<int>(q.batches.size()) >= limits_.max_batches_per_agent) {
+      refusal = Admission::kQueueFull;
+    } else if (!q.batches.empty() && q.bytes + bytes > limits_.max_bytes_per_agent) {
+      refusal = Admission::kQueueBytes;
+    } else if (static_cast<int>(q.segments.size() + fresh.size()) > limits_.max_segments_per_agent) {
+      refusal = Admission::kSegments;
+    }
+    if (refusal != Admission::kQueued) {
+      // An agent whose first batch is refused is not admitted at all: keeping its queue
+      // would take a slot and make its next batch look like a known agent's, which never
+      // starts a handler.
+      if (is_new) queues_.erase(agent);
+      return refusal;
     }
     q.segments.insert(fresh.begin(), fresh.end());
     if (!batch.empty()) {

@@ -4,8 +4,6 @@
 #include <shared_mutex>
 
 #include "slam_core/server/global_ba.h"
-#include "slam_core/server/loop_closer.h"
-#include "slam_core/server/map_fuser.h"
 #include "slam_core/server/outgoing.h"
 #include "slam_core/server/registration.h"
 
@@ -66,6 +64,9 @@ ServerBackend::ServerBackend(std::shared_ptr<const Vocabulary> vocabulary, Serve
       matcher_(vocabulary_, options_.place, stack_.get()),
       scheduler_(LimitsOf(options_)),
       redundancy_(options_.redundancy, stack_.get()),
+      detection_(stack_.get(), options_,
+                 {[this](MapId map) { matcher_.OnLoopClosed(map); },
+                  [this](MapId absorbed, MapId kept) { matcher_.OnMapsFused(absorbed, kept); }}),
       events_(std::move(restored.events)) {
   for (const auto& m : stack_->Maps()) {
     std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
@@ -223,51 +224,15 @@ bool ServerBackend::RunPlaceRecognitionOnce(std::chrono::milliseconds timeout) {
 
 void ServerBackend::HandleDetection(const PlaceDetection& d) {
   scheduler_.AbortGlobalBaOf(d.query_map, d.candidate_map);
-  ServerEvent e;
-  e.time_s = Elapsed();
-  e.agent = d.query.agent();
-  e.query = d.query;
-  e.candidate = d.candidate;
-  e.query_from_candidate = d.query_from_candidate;
-  if (const auto m = stack_->MapHolding(d.query)) {
-    if (const auto kf = m->map().keyframe(d.query)) e.stamp_ns = kf->stamp_ns();
+  DetectionOutcome outcome = detection_.Handle(d, Elapsed());
+  if (!outcome.event) return;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++(outcome.event->kind == ServerEvent::Kind::kLoop ? stats_.loops : stats_.fusions);
   }
-  if (d.kind == PlaceDetection::Kind::kLoop) {
-    const LoopReport r = CloseLoop(stack_.get(), d, options_);
-    if (!r.closed) return;
-    matcher_.OnLoopClosed(r.map);
-    e.kind = ServerEvent::Kind::kLoop;
-    e.map = r.map;
-    e.seconds = r.seconds;
-    e.detail = "moved " + std::to_string(r.correction_m) + " m / " + std::to_string(r.correction_deg) +
-               " deg, scale x" + std::to_string(r.scale_correction) + ", " + std::to_string(r.points_fused) +
-               " points fused, " + std::to_string(r.loop_connections) + " loop connections";
-    {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++stats_.loops;
-    }
-    if (options_.optimization.global_ba_after_loop) scheduler_.RequestGlobalBa(r.map);
-  } else {
-    const FusionReport r =
-        FuseMaps(stack_.get(), d, [this](MapId absorbed, MapId kept) { matcher_.OnMapsFused(absorbed, kept); });
-    if (!r.fused) return;
-    e.kind = ServerEvent::Kind::kFusion;
-    e.map = r.kept;
-    e.other_map = r.absorbed;
-    e.seconds = r.seconds;
-    e.detail = "scale " + std::to_string(r.kept_from_absorbed.scale()) + ", " + std::to_string(r.keyframes_moved) +
-               " keyframes moved, " + std::to_string(r.points_merged) + " points merged, overlap " +
-               (r.refined ? "refined on " : "not refined, ") + std::to_string(r.overlap_inliers) + "/" +
-               std::to_string(r.overlap_pairs) + " point pairs";
-    {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++stats_.fusions;
-    }
-    scheduler_.ForgetGlobalBa(r.absorbed);
-    if (options_.optimization.global_ba_after_fusion) scheduler_.RequestGlobalBa(r.kept);
-  }
-  if (const auto m = stack_->GetMap(e.map)) e.keyframes = static_cast<int>(m->map().num_keyframes());
-  AddEvent(e);
+  if (outcome.forget.valid()) scheduler_.ForgetGlobalBa(outcome.forget);
+  if (outcome.optimize.valid()) scheduler_.RequestGlobalBa(outcome.optimize);
+  AddEvent(std::move(*outcome.event));
 }
 
 void ServerBackend::ScheduleGlobalBa(MapId map) { scheduler_.RequestGlobalBa(map); }

@@ -32,6 +32,7 @@
 #include "slam_core/exchange/agent_data.h"
 #include "slam_core/exchange/server_map_data.h"
 #include "slam_core/server/backend_scheduler.h"
+#include "slam_core/server/detection_stage.h"
 #include "slam_core/server/backend_status.h"
 #include "slam_core/server/map_stack_snapshot.h"
 #include "slam_core/server/place_matcher.h"
@@ -111,6 +112,7 @@ class ServerBackend {
   PlaceMatcher matcher_;  // place-recognition thread (its database is thread-safe)
   BackendScheduler scheduler_;
   RedundancyStage redundancy_;  // optimization thread
+  DetectionStage detection_;    // place-recognition thread
 
   mutable std::mutex callback_mutex_;  // leaf
   std::function<void(AgentId)> on_new_agent_;

@@ -77,6 +77,36 @@ TEST_F(SchedulerTest, AdmissionRefusesBeyondEachLimitAndCreatesOneRegistrationPe
   EXPECT_EQ(d.agent_batches.at(2), 2u);
 }
 
+TEST_F(SchedulerTest, AnAgentWhoseFirstBatchIsRefusedStartsItsHandlerWithItsNextBatch) {
+  // Three segments in the first batch: more than max_segments_per_agent (2).
+  AgentBatch three = Batch(1, 1);
+  three.map_point_updates.push_back({MapPointId::Make(1, 7), KeyframeId(), Eigen::Vector3d::Zero()});
+  three.keyframe_updates.push_back({});
+  three.keyframe_updates.back().segment = MapId::Make(1, 2);
+  three.keyframe_updates.push_back({});
+  three.keyframe_updates.back().segment = MapId::Make(1, 3);
+  bool first = true;
+  EXPECT_EQ(Admit(std::move(three), &first), Admission::kSegments);
+  EXPECT_FALSE(first);
+  EXPECT_TRUE(scheduler_.Agents().empty()) << "a refused first batch takes no agent slot";
+  EXPECT_EQ(Admit(Batch(2)), Admission::kQueued);
+  EXPECT_EQ(Admit(Batch(3)), Admission::kQueued) << "max_agents 2: agent 1 holds none";
+  EXPECT_EQ(Admit(Batch(1), &first), Admission::kAgentRefused);
+}
+
+TEST_F(SchedulerTest, AnAgentRefusedFirstThenAdmittedGetsItsHandler) {
+  AgentBatch three = Batch(1, 1);
+  for (uint64_t s : {2, 3}) {
+    three.keyframe_updates.push_back({});
+    three.keyframe_updates.back().segment = MapId::Make(1, s);
+  }
+  bool first = true;
+  ASSERT_EQ(Admit(std::move(three), &first), Admission::kSegments);
+  EXPECT_EQ(Admit(Batch(1), &first), Admission::kQueued);
+  EXPECT_TRUE(first) << "the first admitted batch starts the agent's handler";
+  EXPECT_TRUE(scheduler_.TakeBatch(1, milliseconds(0)).has_value());
+}
+
 TEST_F(SchedulerTest, ABatchOverTheByteBoundStillEntersAnEmptyQueue) {
   const AgentBatch big = Batch(1, 1, 60000);
   ASSERT_GT(ApproxBatchBytes(big), SmallLimits().max_bytes_per_agent);
