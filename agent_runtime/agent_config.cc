@@ -77,6 +77,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("domain_id", &config->domain_id);
   r.Get("qos_file", &config->qos_file);
   r.Get("security_dir", &config->security_dir);
+  r.Get("insecure", &config->insecure);
   r.Get("participant_profile", &config->participant_profile);
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);

@@ -1,6 +1,6 @@
 # `cmake --install` and the Debian packages (CPack DEB, one package per component):
-#   ccm-common  QoS profiles, the vocabulary, the editable /etc/ccm-slam-dds/wifi.xml (conffile),
-#               the discovery server script
+#   ccm-common  QoS profiles, the vocabulary, the editable /etc/ccm-slam-dds/wifi.xml and
+#               wifi-secure.xml (conffiles), the discovery server script
 #   ccm-agent   ccm_agent, the onboard config template, ccm-agent@.service
 #   ccm-server  ccm_server, ccm_ctl, server.yaml (conffile), ccm-server.service
 #   ccm-tools   ccm_sim, ccm_eval, ccm_vocab, ccm_replay
@@ -18,7 +18,10 @@ install(FILES docs/deployment.md docs/troubleshooting.md DESTINATION share/doc/c
 
 # Templates with install paths filled in at install time (cmake/ccm_install_template.cmake).
 function(ccm_install_template src dest name component)
-  install(CODE "set(CCM_TEMPLATE \"${PROJECT_SOURCE_DIR}/${src}\")
+  if(NOT IS_ABSOLUTE "${src}")
+    set(src "${PROJECT_SOURCE_DIR}/${src}")
+  endif()
+  install(CODE "set(CCM_TEMPLATE \"${src}\")
 set(CCM_TEMPLATE_DEST \"${dest}\")
 set(CCM_TEMPLATE_DEST_SUBDIR \"${dest}\")
 set(CCM_TEMPLATE_NAME \"${name}\")
@@ -27,6 +30,19 @@ include(\"${PROJECT_SOURCE_DIR}/cmake/ccm_install_template.cmake\")" COMPONENT $
 endfunction()
 # A verbatim copy operators edit (peer addresses, discovery server address).
 ccm_install_template(qos_profiles/wifi.xml etc wifi.xml common)
+# What the packaged configs use (secure by default): wifi.xml with datagrams that carry the
+# DDS-Security handshake (docs/security.md "Wi-Fi: the handshake needs 8 kB datagrams").
+set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS qos_profiles/wifi.xml)
+file(READ qos_profiles/wifi.xml CCM_WIFI_XML)
+string(REPLACE "<maxMessageSize>1400</maxMessageSize>" "<maxMessageSize>8192</maxMessageSize>" CCM_WIFI_SECURE_XML
+       "${CCM_WIFI_XML}")
+if(CCM_WIFI_SECURE_XML STREQUAL CCM_WIFI_XML)
+  message(FATAL_ERROR "qos_profiles/wifi.xml: no <maxMessageSize>1400</maxMessageSize> to raise for wifi-secure.xml")
+endif()
+string(REPLACE "<!-- wifi.xml: lossy WiFi links. Unicast discovery via initial peers, 1400 B datagrams," "<!-- wifi-secure.xml (made from wifi.xml at build time: the same but 8192 B datagrams, which carry the DDS-Security handshake): lossy WiFi links. Unicast discovery via initial peers,"
+       CCM_WIFI_SECURE_XML "${CCM_WIFI_SECURE_XML}")
+file(CONFIGURE OUTPUT ${CMAKE_BINARY_DIR}/qos_profiles/wifi-secure.xml CONTENT "${CCM_WIFI_SECURE_XML}" @ONLY)
+ccm_install_template(${CMAKE_BINARY_DIR}/qos_profiles/wifi-secure.xml etc wifi-secure.xml common)
 install(PROGRAMS deploy/run-discovery-server.sh DESTINATION ${CCM_DATA_INSTALL_DIR}/scripts COMPONENT common)
 install(PROGRAMS deploy/security/make-pki.sh DESTINATION ${CCM_DATA_INSTALL_DIR}/scripts COMPONENT common)
 
@@ -84,7 +100,7 @@ set(CPACK_DEBIAN_COMMON_PACKAGE_SUGGESTS "fastdds-tools")
 # The live map view serves three.js from Debian's libjs-three.
 set(CPACK_DEBIAN_SERVER_PACKAGE_RECOMMENDS "libjs-three")
 # Operators edit these; dpkg keeps their changes on upgrade.
-file(WRITE ${CMAKE_BINARY_DIR}/deb-control/common/conffiles "/etc/ccm-slam-dds/wifi.xml\n")
+file(WRITE ${CMAKE_BINARY_DIR}/deb-control/common/conffiles "/etc/ccm-slam-dds/wifi.xml\n/etc/ccm-slam-dds/wifi-secure.xml\n")
 file(WRITE ${CMAKE_BINARY_DIR}/deb-control/server/conffiles "/etc/ccm-slam-dds/server.yaml\n")
 set(CPACK_DEBIAN_COMMON_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/deb-control/common/conffiles)
 set(CPACK_DEBIAN_SERVER_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/deb-control/server/conffiles)

@@ -3,7 +3,9 @@
 #  1. `cmake --install` into a scratch root (prefix /usr, DESTDIR): binaries, data, configs, units
 #  2. the systemd units pass `systemd-analyze verify` (when systemd-analyze exists)
 #  3. the ground station: the installed ccm_server with the installed server.yaml (paths moved
-#     into the scratch root) runs, `ccm_ctl status` reads it, SIGTERM saves its map stack
+#     into the scratch root) refuses to start without its DDS-Security files (secure by
+#     default); with a PKI from the installed make-pki.sh it runs over wifi-secure.xml,
+#     `ccm_ctl status` reads it with the operator's certificate, SIGTERM saves its map stack
 #  4. the robot: the installed onboard config template loads in the installed ccm_agent
 #  5. the lean onboard build (-DCCM_AGENT_ONLY=ON) configures without server, tools or tests
 #  6. the arm64 cross build configures (deploy/cross-configure-arm64.sh) when
@@ -26,7 +28,8 @@ DESTDIR="$R" cmake --install "$BUILD_DIR" --prefix /usr >"$SCRATCH/install.log" 
 for f in usr/bin/ccm_agent usr/bin/ccm_server usr/bin/ccm_ctl usr/bin/ccm_sim usr/bin/ccm_eval usr/bin/ccm_vocab \
          usr/bin/ccm_replay usr/share/ccm-slam-dds/qos_profiles/wifi.xml usr/share/ccm-slam-dds/qos_profiles/default.xml \
          usr/share/ccm-slam-dds/vocabulary/default_vocab_k10_l5.ccmvoc usr/share/ccm-slam-dds/config/agent-onboard.yaml \
-         usr/share/ccm-slam-dds/scripts/run-discovery-server.sh etc/ccm-slam-dds/wifi.xml etc/ccm-slam-dds/server.yaml \
+         usr/share/ccm-slam-dds/scripts/run-discovery-server.sh usr/share/ccm-slam-dds/scripts/make-pki.sh \
+         etc/ccm-slam-dds/wifi.xml etc/ccm-slam-dds/wifi-secure.xml etc/ccm-slam-dds/server.yaml \
          usr/lib/systemd/system/ccm-server.service usr/lib/systemd/system/ccm-agent@.service; do
   [ -e "$R/$f" ] || fail "cmake --install did not install /$f"
 done
@@ -51,13 +54,23 @@ fi
 echo "[deploy] 3. ground station: installed ccm_server with the installed server.yaml"
 sed -e "s|/etc/ccm-slam-dds|$R/etc/ccm-slam-dds|" -e "s|/var/lib/ccm-slam-dds|$SCRATCH/var|" \
   "$R/etc/ccm-slam-dds/server.yaml" >"$SCRATCH/server.yaml"
-QOS="$R/etc/ccm-slam-dds/wifi.xml"
+QOS="$R/etc/ccm-slam-dds/wifi-secure.xml"
+grep -q "^security_dir: $R/etc/ccm-slam-dds/security$" "$SCRATCH/server.yaml" || fail "server.yaml is not secure by default"
+code=0
+"$R/usr/bin/ccm_server" --config "$SCRATCH/server.yaml" --domain "$DOMAIN" --duration 5 >"$SCRATCH/nosec.log" 2>&1 || code=$?
+[ "$code" != 0 ] && grep -q "$R/etc/ccm-slam-dds/security" "$SCRATCH/nosec.log" \
+  || fail "without security files the server must refuse to start, naming the directory: $(cat "$SCRATCH/nosec.log")"
+"$R/usr/share/ccm-slam-dds/scripts/make-pki.sh" "$SCRATCH/pki" --agents 1 >"$SCRATCH/pki.log" 2>&1 \
+  || fail "make-pki.sh: $(cat "$SCRATCH/pki.log")"
+cp -r "$SCRATCH/pki/server" "$R/etc/ccm-slam-dds/security"
+echo "[deploy]    without security files: refused; PKI made with the installed make-pki.sh"
 "$R/usr/bin/ccm_server" --config "$SCRATCH/server.yaml" --domain "$DOMAIN" --no-final-ba >"$SCRATCH/server.log" 2>&1 &
 server_pid=$!
 trap 'kill "$server_pid" 2>/dev/null || true' EXIT
 ok=0
 for _ in 1 2 3 4 5 6 7 8 9 10; do
-  if "$R/usr/bin/ccm_ctl" status --qos "$QOS" --domain "$DOMAIN" --timeout 2 >"$SCRATCH/status.txt" 2>&1; then ok=1; break; fi
+  if "$R/usr/bin/ccm_ctl" status --qos "$QOS" --domain "$DOMAIN" --security-dir "$SCRATCH/pki/ctl" --timeout 2 \
+    >"$SCRATCH/status.txt" 2>&1; then ok=1; break; fi
   sleep 0.5
 done
 [ "$ok" = 1 ] || fail "ccm_ctl status did not reach the installed server: $(cat "$SCRATCH/status.txt") $(cat "$SCRATCH/server.log")"
@@ -68,7 +81,7 @@ trap - EXIT
 [ "$code" = 0 ] || fail "ccm_server exited $code on SIGTERM: $(cat "$SCRATCH/server.log")"
 [ -f "$SCRATCH/var/map_stack.ccmmap" ] || fail "no map stack saved on SIGTERM: $(cat "$SCRATCH/server.log")"
 grep -q "vocabulary $R/usr/share/ccm-slam-dds/vocabulary/" "$SCRATCH/server.log" || fail "installed vocabulary not used"
-echo "[deploy]    server ran, ccm_ctl status answered, SIGTERM saved the map stack"
+echo "[deploy]    secure server ran, ccm_ctl status answered with the operator's certificate, SIGTERM saved the map stack"
 
 echo "[deploy] 4. robot: the onboard template in the installed ccm_agent"
 mkdir -p "$SCRATCH/agents"

@@ -45,6 +45,7 @@ expect_depends() {  # package, then substrings its Depends must contain
 
 expect_files ccm-common /usr/share/ccm-slam-dds/qos_profiles/default.xml /usr/share/ccm-slam-dds/qos_profiles/wifi.xml \
   /usr/share/ccm-slam-dds/vocabulary/default_vocab_k10_l5.ccmvoc /etc/ccm-slam-dds/wifi.xml \
+  /etc/ccm-slam-dds/wifi-secure.xml /usr/share/ccm-slam-dds/scripts/make-pki.sh \
   /usr/share/ccm-slam-dds/scripts/run-discovery-server.sh /usr/share/doc/ccm-slam-dds/deployment.md
 expect_files ccm-agent /usr/bin/ccm_agent /usr/lib/systemd/system/ccm-agent@.service \
   /usr/share/ccm-slam-dds/config/agent-onboard.yaml
@@ -56,6 +57,7 @@ expect_depends ccm-agent libfastrtps libopencv-core libyaml-cpp ccm-common
 expect_depends ccm-server libfastrtps libopencv-core libcholmod ccm-common
 expect_depends ccm-tools libopencv-imgcodecs ccm-common
 dpkg-deb -I "$(deb_of ccm-server)" conffiles | grep -qx "/etc/ccm-slam-dds/server.yaml" || fail "server.yaml is not a conffile"
+dpkg-deb -I "$(deb_of ccm-common)" conffiles | grep -qx "/etc/ccm-slam-dds/wifi-secure.xml" || fail "wifi-secure.xml is not a conffile"
 
 ROOT="$OUT/root"
 for pkg in ccm-common ccm-agent ccm-server ccm-tools; do dpkg -x "$(deb_of "$pkg")" "$ROOT"; done
@@ -64,7 +66,9 @@ grep -q "^ExecStart=/usr/bin/ccm_server --config /etc/ccm-slam-dds/server.yaml" 
   || fail "ccm-server.service: $(grep ExecStart "$ROOT/usr/lib/systemd/system/ccm-server.service")"
 grep -q "^ExecStart=/usr/bin/ccm_agent --config /etc/ccm-slam-dds/agents/%i.yaml" "$ROOT/usr/lib/systemd/system/ccm-agent@.service" \
   || fail "ccm-agent@.service: $(grep ExecStart "$ROOT/usr/lib/systemd/system/ccm-agent@.service")"
-grep -q "^qos_file: /etc/ccm-slam-dds/wifi.xml" "$ROOT/etc/ccm-slam-dds/server.yaml" || fail "server.yaml qos_file"
+grep -q "^qos_file: /etc/ccm-slam-dds/wifi-secure.xml" "$ROOT/etc/ccm-slam-dds/server.yaml" || fail "server.yaml qos_file"
+grep -q "^security_dir: /etc/ccm-slam-dds/security" "$ROOT/etc/ccm-slam-dds/server.yaml" || fail "server.yaml is not secure"
+grep -q "<maxMessageSize>8192</maxMessageSize>" "$ROOT/etc/ccm-slam-dds/wifi-secure.xml" || fail "wifi-secure.xml datagrams"
 if grep -rq "$BUILD_DIR\|_CPack_Packages" "$ROOT/etc" "$ROOT/usr/lib/systemd"; then fail "a build path leaked into the configs"; fi
 
 for bin in ccm_agent ccm_server ccm_ctl ccm_sim ccm_eval ccm_vocab ccm_replay; do

@@ -1,11 +1,12 @@
 // What the command lines of ccm_agent and ccm_server share: the DDS participant's options
 // (which win over the config file's keys when given), the fault-injection options, and the
 // DDS session they resolve to. Templates over the runtime's config type, which has the
-// fields domain_id, qos_file, security_dir, log_level and participant_profile.
+// fields domain_id, qos_file, security_dir, insecure, log_level and participant_profile.
 #pragma once
 
 #include <CLI/CLI.hpp>
 #include <glog/logging.h>
+#include <spdlog/spdlog.h>
 
 #include <string>
 
@@ -15,7 +16,8 @@ namespace ccm::rt {
 
 /// The DDS options of a command line; each is "given" when set there.
 struct DdsOptionsGiven {
-  CLI::Option *domain = nullptr, *qos = nullptr, *security = nullptr, *log = nullptr, *participant = nullptr;
+  CLI::Option *domain = nullptr, *qos = nullptr, *security = nullptr, *insecure = nullptr, *log = nullptr,
+              *participant = nullptr;
 };
 
 template <class Config>
@@ -25,6 +27,9 @@ DdsOptionsGiven AddDdsOptions(CLI::App* app, Config* c, SessionOptions* session)
   g.qos = app->add_option("--qos", c->qos_file, "Fast DDS XML QoS profiles file (overrides the config)");
   g.security = app->add_option("--security-dir", c->security_dir,
                                "DDS-Security directory of this participant (docs/security.md; overrides the config)");
+  g.insecure = app->add_flag("--insecure", c->insecure,
+                             "run without DDS-Security although the config names a security_dir (the packaged "
+                             "configs do): anyone on the network can read the map and forge acknowledgements");
   g.log = app->add_option("--log-level", c->log_level, "trace, debug, info, warn, error, off");
   g.participant = app->add_option("--participant-profile", c->participant_profile,
                                   "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
@@ -40,6 +45,7 @@ void KeepGivenDdsOptions(const DdsOptionsGiven& g, const Config& cli, Config* me
   if (*g.domain) merged->domain_id = cli.domain_id;
   if (*g.qos) merged->qos_file = cli.qos_file;
   if (*g.security) merged->security_dir = cli.security_dir;
+  if (*g.insecure) merged->insecure = cli.insecure;
   if (*g.log) merged->log_level = cli.log_level;
   if (*g.participant) merged->participant_profile = cli.participant_profile;
 }
@@ -55,7 +61,12 @@ bool ResolveSession(const Config& c, SessionOptions* session, std::string* error
   }
   session->domain_id = c.domain_id;
   session->qos_file = c.qos_file;
-  session->security_dir = c.security_dir;
+  session->security_dir = c.insecure ? std::string() : c.security_dir;
+  if (c.insecure && !c.security_dir.empty()) {
+    spdlog::warn("DDS-Security is off (insecure): security_dir '{}' is not used; anyone on DDS domain {} can read "
+                 "this participant's data and write as it",
+                 c.security_dir, c.domain_id);
+  }
   session->participant_profile = c.participant_profile;
   return true;
 }

@@ -9,6 +9,7 @@ struct ServerConfig {
   int domain_id = 0;                 // DDS domain, 0..232
   std::string qos_file;              // empty: $FASTRTPS_DEFAULT_PROFILES_FILE or qos_profiles/default.xml
   std::string security_dir;            // DDS-Security files of this participant (make-pki.sh); empty: no security
+  bool insecure = false;                // ignore security_dir (explicit way out of the packaged secure configs)
   std::string participant_profile = "ccm_participant";  // participant profile in qos_file (discovery: ccm_participant_ds_client)
   std::string log_level = "info";
   double publish_rate_hz = 1.0;      // server -> agent messages per agent per second (< agent rate)

@@ -81,7 +81,9 @@ TEST(AgentConfig, OnboardTemplateLoads) {
   ASSERT_TRUE(LoadAgentConfig(std::string(CCM_SOURCE_DIR) + "/deploy/config/agent-onboard.yaml", &c, &error)) << error;
   EXPECT_EQ(c.camera, "/dev/video0");
   EXPECT_EQ(c.calibration, "/etc/ccm-slam-dds/agents/camera.yaml");
-  EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi.xml");
+  EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi-secure.xml");
+  EXPECT_EQ(c.security_dir, "/etc/ccm-slam-dds/security") << "the onboard template is secure by default";
+  EXPECT_FALSE(c.insecure);
   EXPECT_EQ(c.opencv_threads, 1);
   EXPECT_EQ(c.vo.local_ba_window, 7);
   EXPECT_LT(c.max_keyframes, AgentConfig().max_keyframes);

@@ -1,4 +1,5 @@
 #include "server_runtime/server_config.h"
+#include "runtime_common/runtime_cli.h"
 
 #include <gtest/gtest.h>
 
@@ -57,9 +58,30 @@ TEST(ServerConfig, InstalledDaemonConfigLoads) {
   ServerConfig c;
   std::string error;
   ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
-  EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi.xml");
+  EXPECT_EQ(c.qos_file, "/etc/ccm-slam-dds/wifi-secure.xml");
+  EXPECT_EQ(c.security_dir, "/etc/ccm-slam-dds/security") << "the packaged daemon is secure by default";
+  EXPECT_FALSE(c.insecure);
   EXPECT_EQ(c.map_file, "/var/lib/ccm-slam-dds/map_stack.ccmmap");
   EXPECT_GT(c.autosave_s, 0.0);
+}
+
+// The explicit way out of the secure default: the participant starts without security files.
+TEST(ServerConfig, InsecureDropsTheSecurityDirectoryFromTheSession) {
+  const std::string path = ::testing::TempDir() + "/server_insecure.yaml";
+  std::ofstream(path) << "security_dir: /etc/ccm-slam-dds/security\ninsecure: true\n";
+  ServerConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  EXPECT_TRUE(c.insecure);
+  rt::SessionOptions session;
+  ASSERT_TRUE(rt::ResolveSession(c, &session, &error)) << error;
+  EXPECT_TRUE(session.security_dir.empty());
+  c.insecure = false;
+  ASSERT_TRUE(rt::ResolveSession(c, &session, &error)) << error;
+  EXPECT_EQ(session.security_dir, "/etc/ccm-slam-dds/security");
+  std::ofstream(path) << "insecure: maybe\n";
+  EXPECT_FALSE(LoadServerConfig(path, &c, &error));
+  EXPECT_NE(error.find("insecure"), std::string::npos) << error;
 }
 
 }  // namespace

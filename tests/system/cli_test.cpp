@@ -2,7 +2,9 @@
 // non-zero exit code.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "tests/transport/subprocess.h"
 
@@ -47,6 +49,37 @@ TEST(Cli, BadConfigsFailWithClearErrors) {
   r = RunCli({CCM_SERVER, "--duration", "1", "--drop", "1.5"});
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("drop probability"), std::string::npos) << r.output;
+}
+
+// Secure by default (issue 28): the packaged daemon config names a security directory; without
+// its files the server does not start and says where they should be; --insecure is the
+// explicit way out and warns.
+TEST(Cli, PackagedServerConfigNeedsSecurityFilesOrAnExplicitInsecure) {
+  std::ifstream in(std::string(CCM_SOURCE_DIR) + "/deploy/config/server-daemon.yaml.in");
+  ASSERT_TRUE(in.good());
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string dir = ::testing::TempDir() + "/cli_secure_default";
+  const std::string key = "@CCM_CONFDIR@";
+  for (auto at = yaml.find(key); at != std::string::npos; at = yaml.find(key)) yaml.replace(at, key.size(), dir);
+  const std::string map_key = "/var/lib/ccm-slam-dds";
+  for (auto at = yaml.find(map_key); at != std::string::npos; at = yaml.find(map_key)) yaml.replace(at, map_key.size(), dir);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(CCM_WIFI_SECURE_QOS, dir + "/wifi-secure.xml");
+  std::ofstream(dir + "/server.yaml") << yaml;
+  const std::vector<std::string> server = {CCM_SERVER, "--config", dir + "/server.yaml", "--domain", "189",
+                                           "--duration", "1", "--no-final-ba"};
+  auto r = RunCli(server);
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find(dir + "/security"), std::string::npos) << "the error names the directory:\n" << r.output;
+
+  std::vector<std::string> insecure = server;
+  insecure.push_back("--insecure");
+  r = RunCli(insecure);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("DDS-Security is off"), std::string::npos) << r.output;
 }
 
 TEST(Cli, HonoursDefaultProfilesFileFromEnvironment) {

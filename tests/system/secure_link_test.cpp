@@ -36,9 +36,10 @@ TEST(SecureLink, AgentWithCertificateWorksAndIntrudersGetNothingInOrOut) {
   MakePki(dir + "/team", "1 2");
   MakePki(dir + "/rogue", "1");  // same subject names, another CA
   const std::string domain = "187";
-  // default.xml: wifi.xml's 1400 B datagrams are too small for the security handshake
-  // (docs/security.md, 'Wi-Fi'); the runtimes refuse that combination with a clear error.
-  const std::vector<std::string> common = {"--qos", std::string(CCM_QOS_DIR) + "/default.xml", "--domain", domain};
+  // wifi-secure.xml, what the packaged configs use: wifi.xml with 8192 B datagrams (wifi.xml's
+  // 1400 B cannot carry the security handshake, docs/security.md 'Wi-Fi'; the runtimes refuse
+  // that combination with a clear error).
+  const std::vector<std::string> common = {"--qos", CCM_WIFI_SECURE_QOS, "--domain", domain};
   auto with = [&](std::vector<std::string> cmd, const std::vector<std::string>& more) {
     cmd.insert(cmd.end(), common.begin(), common.end());
     cmd.insert(cmd.end(), more.begin(), more.end());
