@@ -34,6 +34,31 @@ double EpipolarDistance(const Eigen::Vector3d& line, const Eigen::Vector3d& x) {
   return n > 1e-12 ? std::abs(line.dot(x)) / n : 1e12;
 }
 
+// The best pure rotation b2 ~ R b1 over the inliers (Kabsch on unit bearings), and the
+// median angle it leaves: the part of the flow no rotation explains. Unlike the parallax
+// of the triangulated points, it does not depend on the motion the solver chose, which a
+// small baseline leaves ambiguous (a sideways translation plus a small rotation explains a
+// short forward move about as well).
+double MedianRotationResidualDeg(const std::vector<Eigen::Vector3d>& b1, const std::vector<Eigen::Vector3d>& b2,
+                                 const std::vector<bool>& inliers) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < b1.size(); ++i) {
+    if (inliers[i]) m += b2[i].normalized() * b1[i].normalized().transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  const Eigen::Matrix3d r = svd.matrixU() * d * svd.matrixV().transpose();
+  std::vector<double> residual;
+  for (size_t i = 0; i < b1.size(); ++i) {
+    if (!inliers[i]) continue;
+    residual.push_back(std::acos(std::clamp((r * b1[i].normalized()).dot(b2[i].normalized()), -1.0, 1.0)) * kRadToDeg);
+  }
+  if (residual.empty()) return 0.0;
+  std::nth_element(residual.begin(), residual.begin() + residual.size() / 2, residual.end());
+  return residual[residual.size() / 2];
+}
+
 struct MotionCheck {
   int good = 0;     // triangulated with enough parallax: the initial map points
   int distant = 0;  // too little parallax to triangulate: consistent, but no map point
@@ -133,6 +158,7 @@ std::string TwoViewInitOptions::Validate() const {
   if (!(min_homography_ratio >= 0.0 && min_homography_ratio <= 1.0)) return "min_homography_ratio must be in [0, 1]";
   if (!(min_parallax_deg >= 0.0)) return "min_parallax_deg must be >= 0";
   if (min_triangulated < 1) return "min_triangulated must be >= 1";
+  if (!(min_rotation_residual_deg >= 0.0)) return "min_rotation_residual_deg must be >= 0";
   if (!(min_triangulated_fraction >= 0.0 && min_triangulated_fraction <= 1.0)) return "min_triangulated_fraction must be in [0, 1]";
   return "";
 }
@@ -219,6 +245,15 @@ TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings
     result.model = TwoViewModel::kEssential;
   }
   result.homography_ratio = ratio;
+  if (result.ok() && options.min_rotation_residual_deg > 0.0) {
+    const std::vector<bool>& inliers = use_h ? homography.inliers : essential.inliers;
+    result.rotation_residual_deg = MedianRotationResidualDeg(bearings1, bearings2, inliers);
+    if (result.rotation_residual_deg < options.min_rotation_residual_deg) {
+      result.status = SolverStatus::kLowParallax;
+      result.message = "a rotation alone explains the view (median residual " +
+                       std::to_string(result.rotation_residual_deg) + " deg): too little translation to tell";
+    }
+  }
   return result;
 }
 

@@ -49,6 +49,12 @@ struct TwoViewInitOptions {
   bool count_distant_points = false;
   /// Homography: the second-best motion must have < this fraction of the best's points.
   double max_second_best_ratio = 0.75;
+  /// The median angle left after the best pure rotation (the flow no rotation explains)
+  /// must reach this. A short baseline leaves the motion ambiguous: on generated halls
+  /// both the essential matrix and the homography returned motions 73-99 deg off in
+  /// translation direction from frames 0.1-0.5 s apart whose triangulated parallax passed
+  /// min_parallax_deg, and the VO kept the distorted map. 0: off.
+  double min_rotation_residual_deg = 0.0;
 
   std::string Validate() const;
 };
@@ -67,6 +73,8 @@ struct TwoViewInitResult {
   int num_triangulated = 0;
   int num_distant = 0;        // inliers with too little parallax under the chosen motion
   double median_parallax_deg = 0.0;
+  /// Median angle left after the best pure rotation (set when min_rotation_residual_deg > 0).
+  double rotation_residual_deg = 0.0;
 
   bool ok() const { return status == SolverStatus::kOk; }
 };

@@ -28,6 +28,9 @@ std::string VoOptions::Validate() const {
   if (!(min_triangulation_parallax_deg > 0.0 && min_triangulation_parallax_deg < 90.0)) {
     return "min_triangulation_parallax_deg must be in (0, 90)";
   }
+  if (!(init_min_rotation_residual_deg >= 0.0 && init_min_rotation_residual_deg < 90.0)) {
+    return "init_min_rotation_residual_deg must be in [0, 90)";
+  }
   if (!(triangulation_parallax_sigmas >= 0.0 && triangulation_parallax_sigmas <= 1000.0)) {
     return "triangulation_parallax_sigmas must be in [0, 1000]";
   }
