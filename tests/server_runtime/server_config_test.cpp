@@ -1,10 +1,10 @@
 #include "server_runtime/server_config.h"
 #include "runtime_common/runtime_cli.h"
+#include "tests/server_runtime/daemon_config_template.h"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <sstream>
 
 namespace ccm::server {
 namespace {
@@ -46,13 +46,8 @@ TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
 
 // The config the ccm-server package installs (its @CCM_CONFDIR@ filled in as at install time).
 TEST(ServerConfig, InstalledDaemonConfigLoads) {
-  std::ifstream in(std::string(CCM_SOURCE_DIR) + "/deploy/config/server-daemon.yaml.in");
-  ASSERT_TRUE(in.good());
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string yaml = text.str();
-  const std::string key = "@CCM_CONFDIR@";
-  for (auto at = yaml.find(key); at != std::string::npos; at = yaml.find(key)) yaml.replace(at, key.size(), "/etc/ccm-slam-dds");
+  const std::string yaml = testing::InstalledDaemonConfig("/etc/ccm-slam-dds");
+  ASSERT_FALSE(yaml.empty());
   const std::string path = ::testing::TempDir() + "/server_installed.yaml";
   std::ofstream(path) << yaml;
   ServerConfig c;

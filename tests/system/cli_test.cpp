@@ -4,8 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
+#include "tests/server_runtime/daemon_config_template.h"
 #include "tests/transport/subprocess.h"
 
 namespace ccm {
@@ -55,16 +55,9 @@ TEST(Cli, BadConfigsFailWithClearErrors) {
 // its files the server does not start and says where they should be; --insecure is the
 // explicit way out and warns.
 TEST(Cli, PackagedServerConfigNeedsSecurityFilesOrAnExplicitInsecure) {
-  std::ifstream in(std::string(CCM_SOURCE_DIR) + "/deploy/config/server-daemon.yaml.in");
-  ASSERT_TRUE(in.good());
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string yaml = text.str();
   const std::string dir = ::testing::TempDir() + "/cli_secure_default";
-  const std::string key = "@CCM_CONFDIR@";
-  for (auto at = yaml.find(key); at != std::string::npos; at = yaml.find(key)) yaml.replace(at, key.size(), dir);
-  const std::string map_key = "/var/lib/ccm-slam-dds";
-  for (auto at = yaml.find(map_key); at != std::string::npos; at = yaml.find(map_key)) yaml.replace(at, map_key.size(), dir);
+  const std::string yaml = testing::InstalledDaemonConfig(dir, dir);
+  ASSERT_FALSE(yaml.empty());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   std::filesystem::copy_file(CCM_WIFI_SECURE_QOS, dir + "/wifi-secure.xml");
