@@ -1,7 +1,9 @@
 #include "slam_core/solvers/relative_pose.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <opengv/relative_pose/CentralRelativeAdapter.hpp>
@@ -79,15 +81,15 @@ double TotalCost(const SE3& T, const Bearings& f1, const Bearings& f2,
 }
 
 // Levenberg-Marquardt (IRLS weights) with a Cauchy loss and forward-difference Jacobians
-// (5 parameters, cheap residuals).
+// (5 parameters, cheap residuals). rotation_only keeps the translation direction fixed.
 template <class Bearings>
 SE3 RefineLm(const SE3& initial, const Bearings& f1, const Bearings& f2, const std::vector<int>& idx,
-             double loss_scale_rad) {
+             double loss_scale_rad, bool rotation_only = false, int max_iterations = 100) {
   const RobustCost cost{loss_scale_rad};
   SE3 T = NormalizeTranslation(initial);
   double current = TotalCost(T, f1, f2, idx, cost), lambda = 1e-4;
   constexpr double kStep = 1e-7;
-  for (int iter = 0; iter < 100; ++iter) {
+  for (int iter = 0; iter < max_iterations; ++iter) {
     Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
     const Eigen::Matrix3d E = EssentialFromPose(T);
@@ -100,6 +102,12 @@ SE3 RefineLm(const SE3& initial, const Bearings& f1, const Bearings& f2, const s
       const double w = cost.Weight(r);
       H += w * J * J.transpose();
       g += w * J * r;
+    }
+    if (rotation_only) {
+      H.bottomRows<2>().setZero();
+      H.rightCols<2>().setZero();
+      H.bottomRightCorner<2, 2>().setIdentity();
+      g.tail<2>().setZero();
     }
     bool improved = false;
     for (int attempt = 0; attempt < 6 && !improved; ++attempt) {
@@ -194,6 +202,54 @@ Eigen::Matrix3d EssentialFromPose(const SE3& cam2_from_cam1) {
   Eigen::Matrix3d tx;
   tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
   return tx * cam2_from_cam1.rotation_matrix();
+}
+
+MotionAmbiguity ProfileTranslationDirections(const SE3& cam2_from_cam1,
+                                            const std::vector<Eigen::Vector3d>& bearings1,
+                                            const std::vector<Eigen::Vector3d>& bearings2,
+                                            const std::vector<int>& indices, double sigma_rad,
+                                            double min_angle_deg) {
+  // Cauchy loss at 2 sigma (about the 95 % gate of one degree of freedom), cost in sigma^2.
+  const RobustCost cost{2.0 * sigma_rad};
+  const auto cost_of = [&](const SE3& T) { return TotalCost(T, bearings1, bearings2, indices, cost) / (sigma_rad * sigma_rad); };
+  const auto line_angle_deg = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return std::acos(std::clamp(std::abs(a.normalized().dot(b.normalized())), 0.0, 1.0)) * 180.0 / M_PI;
+  };
+  MotionAmbiguity out;
+  const SE3 chosen = RefineLm(cam2_from_cam1, bearings1, bearings2, indices, cost.scale);
+  out.chosen_cost = std::min(cost_of(NormalizeTranslation(cam2_from_cam1)), cost_of(chosen));
+  const Eigen::Vector3d t0 = chosen.translation();
+  // Directions on a Fibonacci sphere; t and -t give the same essential matrix, so each
+  // line is visited once. A few Gauss-Newton steps of the rotation per direction: the
+  // rotation of a competing motion differs by a degree or two.
+  constexpr int kDirections = 300;
+  std::vector<std::pair<double, SE3>> scored;
+  for (int k = 0; k < kDirections; ++k) {
+    const double z = 1.0 - (k + 0.5) / kDirections;  // upper hemisphere
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z)), phi = k * M_PI * (3.0 - std::sqrt(5.0));
+    const Eigen::Vector3d d(r * std::cos(phi), r * std::sin(phi), z);
+    if (line_angle_deg(d, t0) < min_angle_deg) continue;
+    const SE3 T = RefineLm(SE3(chosen.rotation(), d), bearings1, bearings2, indices, cost.scale, true, 3);
+    scored.emplace_back(cost_of(T), T);
+  }
+  if (scored.empty()) return out;
+  const size_t keep = std::min<size_t>(3, scored.size());
+  std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),
+                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  out.alternative_cost = scored.front().first;
+  out.alternative = scored.front().second;
+  for (size_t k = 0; k < keep; ++k) {
+    // Settle the best grid directions into their own minimum; one that slides back into
+    // the chosen motion's valley keeps its grid cost.
+    const SE3 T = RefineLm(scored[k].second, bearings1, bearings2, indices, cost.scale);
+    const double c = cost_of(T);
+    if (line_angle_deg(T.translation(), t0) >= min_angle_deg && c < out.alternative_cost) {
+      out.alternative_cost = c;
+      out.alternative = T;
+    }
+  }
+  out.alternative_angle_deg = line_angle_deg(out.alternative.translation(), t0);
+  return out;
 }
 
 SE3 RefineRelativePose(const SE3& cam2_from_cam1, const std::vector<Eigen::Vector3d>& bearings1,

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,24 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector3d>& bear
 SE3 RefineRelativePose(const SE3& cam2_from_cam1, const std::vector<Eigen::Vector3d>& bearings1,
                        const std::vector<Eigen::Vector3d>& bearings2, const std::vector<int>& indices,
                        double loss_scale_rad);
+
+/// How far the best motion whose translation direction lies at least min_angle_deg from the
+/// chosen one falls behind it, in robust cost (Cauchy at 2 sigma, units of sigma^2, summed
+/// over `indices`). A short forward move in a partly planar view has a second minimum with
+/// a sideways translation (73-99 deg away) that costs about the same: the view cannot tell
+/// the two apart, whatever the camera.
+struct MotionAmbiguity {
+  double chosen_cost = 0.0;
+  double alternative_cost = std::numeric_limits<double>::infinity();
+  SE3 alternative;
+  double alternative_angle_deg = 0.0;
+  double gap() const { return alternative_cost - chosen_cost; }
+};
+MotionAmbiguity ProfileTranslationDirections(const SE3& cam2_from_cam1,
+                                            const std::vector<Eigen::Vector3d>& bearings1,
+                                            const std::vector<Eigen::Vector3d>& bearings2,
+                                            const std::vector<int>& indices, double sigma_rad,
+                                            double min_angle_deg);
 
 /// Essential matrix of a motion: x2^T E x1 = 0 for bearings x1 (cam1), x2 (cam2).
 Eigen::Matrix3d EssentialFromPose(const SE3& cam2_from_cam1);

@@ -12,6 +12,9 @@ namespace {
 constexpr double kChi2OneDof = 3.841;  // 95 %, epipolar distance
 constexpr double kChi2TwoDof = 5.991;  // 95 %, transfer / reprojection error
 constexpr double kRadToDeg = 180.0 / M_PI;
+// Rival motions are looked for this far from the chosen translation direction: the wrong
+// starts seen were 73-99 deg off, and a rival closer than this is the same valley.
+constexpr double kRivalMinAngleDeg = 30.0;
 
 bool Normalized(const Eigen::Vector3d& b, Eigen::Vector3d* x) {
   if (b.z() <= 1e-6) return false;
@@ -159,6 +162,7 @@ std::string TwoViewInitOptions::Validate() const {
   if (!(min_parallax_deg >= 0.0)) return "min_parallax_deg must be >= 0";
   if (min_triangulated < 1) return "min_triangulated must be >= 1";
   if (!(min_rotation_residual_deg >= 0.0)) return "min_rotation_residual_deg must be >= 0";
+  if (!(min_motion_cost_gap >= 0.0)) return "min_motion_cost_gap must be >= 0";
   if (!(min_triangulated_fraction >= 0.0 && min_triangulated_fraction <= 1.0)) return "min_triangulated_fraction must be in [0, 1]";
   return "";
 }
@@ -245,8 +249,24 @@ TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings
     result.model = TwoViewModel::kEssential;
   }
   result.homography_ratio = ratio;
+  const std::vector<bool>& inliers = use_h ? homography.inliers : essential.inliers;
+  if (result.ok() && options.min_motion_cost_gap > 0.0) {
+    std::vector<int> used;
+    for (size_t i = 0; i < inliers.size(); ++i) {
+      if (inliers[i]) used.push_back(static_cast<int>(i));
+    }
+    const MotionAmbiguity rival = ProfileTranslationDirections(result.cam2_from_cam1, bearings1, bearings2, used,
+                                                               options.sigma_px / options.focal_px, kRivalMinAngleDeg);
+    result.motion_cost_gap = rival.gap();
+    result.rival_angle_deg = rival.alternative_angle_deg;
+    if (!(result.motion_cost_gap >= options.min_motion_cost_gap)) {
+      result.status = SolverStatus::kAmbiguous;
+      result.message = "a motion " + std::to_string(static_cast<int>(result.rival_angle_deg)) +
+                       " deg away in translation direction explains the view about as well (cost gap " +
+                       std::to_string(result.motion_cost_gap) + " < " + std::to_string(options.min_motion_cost_gap) + ")";
+    }
+  }
   if (result.ok() && options.min_rotation_residual_deg > 0.0) {
-    const std::vector<bool>& inliers = use_h ? homography.inliers : essential.inliers;
     result.rotation_residual_deg = MedianRotationResidualDeg(bearings1, bearings2, inliers);
     if (result.rotation_residual_deg < options.min_rotation_residual_deg) {
       result.status = SolverStatus::kLowParallax;

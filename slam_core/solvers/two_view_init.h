@@ -55,6 +55,10 @@ struct TwoViewInitOptions {
   /// translation direction from frames 0.1-0.5 s apart whose triangulated parallax passed
   /// min_parallax_deg, and the VO kept the distorted map. 0: off.
   double min_rotation_residual_deg = 0.0;
+  /// The chosen motion must beat every motion whose translation direction is at least
+  /// 30 deg away by this robust cost (Cauchy at 2 sigma, sigma^2 units; see
+  /// ProfileTranslationDirections). 0: off.
+  double min_motion_cost_gap = 0.0;
 
   std::string Validate() const;
 };
@@ -75,6 +79,10 @@ struct TwoViewInitResult {
   double median_parallax_deg = 0.0;
   /// Median angle left after the best pure rotation (set when min_rotation_residual_deg > 0).
   double rotation_residual_deg = 0.0;
+  /// Robust cost by which the chosen motion beats its best rival >= 30 deg away in
+  /// translation direction, and that rival's angle (set when min_motion_cost_gap > 0).
+  double motion_cost_gap = 0.0;
+  double rival_angle_deg = 0.0;
 
   bool ok() const { return status == SolverStatus::kOk; }
 };

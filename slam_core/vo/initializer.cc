@@ -62,6 +62,7 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
   init_options.min_homography_ratio = o.init_min_homography_ratio;
   init_options.count_distant_points = o.init_count_distant_points;
   init_options.min_rotation_residual_deg = o.init_min_rotation_residual_deg;
+  init_options.min_motion_cost_gap = o.init_min_motion_cost_gap;
   solvers::TwoViewInitResult two_view = solvers::InitializeTwoView(b1, b2, init_options);
   if (!two_view.ok() && o.init_fallback_homography_ratio < o.init_min_homography_ratio &&
       two_view.homography_ratio >= o.init_fallback_homography_ratio) {

@@ -49,6 +49,12 @@ struct VoOptions {
   /// KITTI 07 from frame 0 never initializes with 0.5 or 1.0 (its right start has 0.30 deg,
   /// the wrong ones 0.16-0.39). docs/vo.md "A wrong start".
   double init_min_rotation_residual_deg = 0.0;
+  /// solvers::TwoViewInitOptions::min_motion_cost_gap: the chosen two-view motion must
+  /// beat every motion >= 30 deg away in translation direction by this robust cost
+  /// (sigma^2 units). Wrong starts on generated halls scored -64 to -1 (their rival, the
+  /// true motion, was as good or better), right ones 38-318, KITTI 07 and New Tsukuba
+  /// 46-318. 0: off. docs/vo.md "A rival motion".
+  double init_min_motion_cost_gap = 30.0;
   double init_homography_min_parallax_deg = 3.0;
 
   // Tracking.
