@@ -173,6 +173,10 @@ int main(int argc, char** argv) {
                  "place recognition: covisible keyframes verified with each candidate (0: the candidate alone)")
       ->capture_default_str()
       ->check(CLI::Range(0, 20));
+  app.add_option("--init-motion-gap", replay.vo.init_min_motion_cost_gap,
+                 "VO start: the two-view motion must beat every rival >= 30 deg away by this cost (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
   CLI11_PARSE(app, argc, argv);
 
   std::vector<std::uint64_t> seeds;
