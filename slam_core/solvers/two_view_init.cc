@@ -250,7 +250,7 @@ TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings
   }
   result.homography_ratio = ratio;
   const std::vector<bool>& inliers = use_h ? homography.inliers : essential.inliers;
-  if (result.ok() && options.min_motion_cost_gap > 0.0) {
+  if (result.ok() && !use_h && options.min_motion_cost_gap > 0.0) {
     std::vector<int> used;
     for (size_t i = 0; i < inliers.size(); ++i) {
       if (inliers[i]) used.push_back(static_cast<int>(i));

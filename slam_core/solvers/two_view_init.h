@@ -57,7 +57,10 @@ struct TwoViewInitOptions {
   double min_rotation_residual_deg = 0.0;
   /// The chosen motion must beat every motion whose translation direction is at least
   /// 30 deg away by this robust cost (Cauchy at 2 sigma, sigma^2 units; see
-  /// ProfileTranslationDirections). 0: off.
+  /// ProfileTranslationDirections). Checks the essential matrix's motion only (the
+  /// homography's decompositions have their own test). On a pure plane every view has such
+  /// a rival (the plane's other decomposition), so a caller that keeps trying must give up
+  /// refusing at some point (the VO: init_max_ambiguous_attempts). 0: off.
   double min_motion_cost_gap = 0.0;
 
   std::string Validate() const;

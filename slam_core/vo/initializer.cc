@@ -62,8 +62,10 @@ std::optional<InitializationResult> Initializer::TryInitialize(const VoFrame& cu
   init_options.min_homography_ratio = o.init_min_homography_ratio;
   init_options.count_distant_points = o.init_count_distant_points;
   init_options.min_rotation_residual_deg = o.init_min_rotation_residual_deg;
-  init_options.min_motion_cost_gap = o.init_min_motion_cost_gap;
+  init_options.min_motion_cost_gap =
+      ambiguous_attempts_ < o.init_max_ambiguous_attempts ? o.init_min_motion_cost_gap : 0.0;
   solvers::TwoViewInitResult two_view = solvers::InitializeTwoView(b1, b2, init_options);
+  ambiguous_attempts_ += two_view.status == solvers::SolverStatus::kAmbiguous && two_view.rival_angle_deg > 0.0;
   if (!two_view.ok() && o.init_fallback_homography_ratio < o.init_min_homography_ratio &&
       two_view.homography_ratio >= o.init_fallback_homography_ratio) {
     init_options.min_homography_ratio = o.init_fallback_homography_ratio;

@@ -27,6 +27,7 @@ class Initializer {
   void Reset() {
     reference_.reset();
     search_centres_.clear();
+    ambiguous_attempts_ = 0;
   }
   /// Two-view attempts that failed on a view that looks planar (homography score ratio
   /// between ORB-SLAM's 0.40 and init_min_homography_ratio) or whose inliers are a third or
@@ -41,6 +42,10 @@ class Initializer {
   std::optional<VoFrame> reference_;
   std::vector<Eigen::Vector2f> search_centres_;  ///< per reference keypoint
   int64_t road_like_attempts_ = 0;
+  /// Starts refused because a rival motion explained the view as well, since the last
+  /// Reset: from init_max_ambiguous_attempts on the check is skipped (a pure plane always
+  /// has a rival, and a late start beats none).
+  int ambiguous_attempts_ = 0;
 };
 
 }  // namespace ccm

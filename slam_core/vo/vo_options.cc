@@ -34,6 +34,7 @@ std::string VoOptions::Validate() const {
   if (!(init_min_motion_cost_gap >= 0.0 && init_min_motion_cost_gap <= 1e6)) {
     return "init_min_motion_cost_gap must be in [0, 1e6]";
   }
+  if (init_max_ambiguous_attempts < 0) return "init_max_ambiguous_attempts must be >= 0";
   if (!(triangulation_parallax_sigmas >= 0.0 && triangulation_parallax_sigmas <= 1000.0)) {
     return "triangulation_parallax_sigmas must be in [0, 1000]";
   }

@@ -55,6 +55,10 @@ struct VoOptions {
   /// true motion, was as good or better), right ones 38-318, KITTI 07 and New Tsukuba
   /// 46-318. 0: off. docs/vo.md "A rival motion".
   double init_min_motion_cost_gap = 30.0;
+  /// After this many starts refused for a rival motion (since the last map), the check is
+  /// skipped: a pure plane always has one (its homography's other decomposition). The
+  /// drifting hall flights needed up to 19 refusals before a clear start.
+  int init_max_ambiguous_attempts = 30;
   double init_homography_min_parallax_deg = 3.0;
 
   // Tracking.

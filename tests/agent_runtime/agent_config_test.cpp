@@ -63,11 +63,12 @@ TEST(AgentConfig, VoSectionSetsOptionsAndIsStrict) {
   AgentConfig t;
   ASSERT_TRUE(LoadAgentConfig(Write("t.yaml", "vo:\n  triangulation_parallax_sigmas: 10\n  min_triangulation_parallax_deg: 1.5\n"
                                               "  local_ba_max_fixed: 20\n  init_min_rotation_residual_deg: 1\n"
-                                              "  init_min_motion_cost_gap: 0\n"),
+                                              "  init_min_motion_cost_gap: 0\n  init_max_ambiguous_attempts: 5\n"),
                               &t, &error))
       << error;
   EXPECT_DOUBLE_EQ(t.vo.init_min_rotation_residual_deg, 1.0);
   EXPECT_DOUBLE_EQ(t.vo.init_min_motion_cost_gap, 0.0);
+  EXPECT_EQ(t.vo.init_max_ambiguous_attempts, 5);
   EXPECT_GT(VoOptions{}.init_min_motion_cost_gap, 0.0) << "the rival-motion check is on by default";
   EXPECT_DOUBLE_EQ(t.vo.triangulation_parallax_sigmas, 10.0);
   EXPECT_DOUBLE_EQ(t.vo.min_triangulation_parallax_deg, 1.5);
