@@ -34,11 +34,13 @@ CASES = {
     "ntsd150": dict(folder="ntsd150_euroc", ranges=("0-89", "60-149"), shared=(60, 89), min_tracked=0.75,
                     max_vo_ate_pct=1.0, fuses=True, max_joint_ate_pct=0.5, max_scale_ratio=1.10),
     # The same sweep with 10 shared frames: the second agent starts as the first one ends.
-    # Today the maps do not fuse (fusion candidates stop at BoW matches and RANSAC) and the
-    # second agent's VO, initialized while the camera turns, drifts 3.5 % of its path. Fusion
+    # Today the maps do not fuse (fusion candidates stop at BoW matches and RANSAC). The
+    # second agent's VO used to initialize while the camera turns and drift 3.5 % of its
+    # path; the start check (a rival motion explained that view as well, docs/vo.md "A rival
+    # motion") now refuses it and starts ~25 frames later: tracked 53/80, VO 0.05 %. Fusion
     # is not asserted either way; if the maps fuse, the fused map must be sound.
-    "ntsd150-short": dict(folder="ntsd150_euroc", ranges=("0-79", "70-149"), shared=(70, 79), min_tracked=0.75,
-                          max_vo_ate_pct=6.0, fuses=False, max_joint_ate_pct=2.0, max_scale_ratio=1.2),
+    "ntsd150-short": dict(folder="ntsd150_euroc", ranges=("0-79", "70-149"), shared=(70, 79), min_tracked=0.6,
+                          max_vo_ate_pct=1.0, fuses=False, max_joint_ate_pct=2.0, max_scale_ratio=1.2),
 }
 
 # Frames before or after the shared stretch whose view can still overlap it (see check_bounds).
