@@ -236,19 +236,19 @@ MotionAmbiguity ProfileTranslationDirections(const SE3& cam2_from_cam1,
   const size_t keep = std::min<size_t>(3, scored.size());
   std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),
                     [](const auto& a, const auto& b) { return a.first < b.first; });
-  out.alternative_cost = scored.front().first;
-  out.alternative = scored.front().second;
+  out.rival_cost = scored.front().first;
+  out.rival = scored.front().second;
   for (size_t k = 0; k < keep; ++k) {
     // Settle the best grid directions into their own minimum; one that slides back into
     // the chosen motion's valley keeps its grid cost.
     const SE3 T = RefineLm(scored[k].second, bearings1, bearings2, indices, cost.scale);
     const double c = cost_of(T);
-    if (line_angle_deg(T.translation(), t0) >= min_angle_deg && c < out.alternative_cost) {
-      out.alternative_cost = c;
-      out.alternative = T;
+    if (line_angle_deg(T.translation(), t0) >= min_angle_deg && c < out.rival_cost) {
+      out.rival_cost = c;
+      out.rival = T;
     }
   }
-  out.alternative_angle_deg = line_angle_deg(out.alternative.translation(), t0);
+  out.rival_angle_deg = line_angle_deg(out.rival.translation(), t0);
   return out;
 }
 

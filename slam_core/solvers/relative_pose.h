@@ -65,10 +65,10 @@ SE3 RefineRelativePose(const SE3& cam2_from_cam1, const std::vector<Eigen::Vecto
 /// the two apart, whatever the camera.
 struct MotionAmbiguity {
   double chosen_cost = 0.0;
-  double alternative_cost = std::numeric_limits<double>::infinity();
-  SE3 alternative;
-  double alternative_angle_deg = 0.0;
-  double gap() const { return alternative_cost - chosen_cost; }
+  double rival_cost = std::numeric_limits<double>::infinity();
+  SE3 rival;
+  double rival_angle_deg = 0.0;
+  double gap() const { return rival_cost - chosen_cost; }
 };
 MotionAmbiguity ProfileTranslationDirections(const SE3& cam2_from_cam1,
                                             const std::vector<Eigen::Vector3d>& bearings1,

@@ -255,10 +255,10 @@ TwoViewInitResult InitializeTwoView(const std::vector<Eigen::Vector3d>& bearings
     for (size_t i = 0; i < inliers.size(); ++i) {
       if (inliers[i]) used.push_back(static_cast<int>(i));
     }
-    const MotionAmbiguity rival = ProfileTranslationDirections(result.cam2_from_cam1, bearings1, bearings2, used,
+    const MotionAmbiguity profile = ProfileTranslationDirections(result.cam2_from_cam1, bearings1, bearings2, used,
                                                                options.sigma_px / options.focal_px, kRivalMinAngleDeg);
-    result.motion_cost_gap = rival.gap();
-    result.rival_angle_deg = rival.alternative_angle_deg;
+    result.motion_cost_gap = profile.gap();
+    result.rival_angle_deg = profile.rival_angle_deg;
     if (!(result.motion_cost_gap >= options.min_motion_cost_gap)) {
       result.status = SolverStatus::kAmbiguous;
       result.message = "a motion " + std::to_string(static_cast<int>(result.rival_angle_deg)) +
