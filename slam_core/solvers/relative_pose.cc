@@ -216,8 +216,9 @@ MotionAmbiguity ProfileTranslationDirections(const SE3& cam2_from_cam1,
     return std::acos(std::clamp(std::abs(a.normalized().dot(b.normalized())), 0.0, 1.0)) * 180.0 / M_PI;
   };
   MotionAmbiguity out;
+  // Settled under this cost first (RefineLm only takes steps that lower it).
   const SE3 chosen = RefineLm(cam2_from_cam1, bearings1, bearings2, indices, cost.scale);
-  out.chosen_cost = std::min(cost_of(NormalizeTranslation(cam2_from_cam1)), cost_of(chosen));
+  out.chosen_cost = cost_of(chosen);
   const Eigen::Vector3d t0 = chosen.translation();
   // Directions on a Fibonacci sphere; t and -t give the same essential matrix, so each
   // line is visited once. A few Gauss-Newton steps of the rotation per direction: the
