@@ -16,39 +16,60 @@ BackendRunner::BackendRunner(ServerBackend* backend) : backend_(backend) {
   threads_.emplace_back([this] {
     while (running_) backend_->RunOptimizationOnce(kWait);
   });
-  for (const AgentId a : backend_->Status().agents) {
-    threads_.emplace_back([this, a] {
-      while (running_) backend_->RunHandlerOnce(a, kWait);
-    });
+  for (const AgentId a : backend_->Status().agents) StartHandlerLocked(a);
+}
+
+void BackendRunner::HandleAgent(AgentId agent) {
+  // Ends when the agent's slot is released; the back-end asks for a new thread if it returns.
+  while (running_ && backend_->RunHandlerOnce(agent, kWait) != ServerBackend::HandlerStep::kAgentReleased) {
   }
+}
+
+void BackendRunner::StartHandlerLocked(AgentId agent) {
+  for (auto it = handlers_.begin(); it != handlers_.end();) {
+    if (it->ended->load()) {
+      it->thread.join();
+      it = handlers_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  auto ended = std::make_shared<std::atomic<bool>>(false);
+  handlers_.push_back({std::thread([this, agent, ended] {
+                         HandleAgent(agent);
+                         ended->store(true);
+                       }),
+                       ended});
 }
 
 BackendRunner::~BackendRunner() { Stop(); }
 
 void BackendRunner::StartHandler(AgentId agent) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!running_) return;
-  threads_.emplace_back([this, agent] {
-    while (running_) backend_->RunHandlerOnce(agent, kWait);
-  });
+  if (running_) StartHandlerLocked(agent);
 }
 
 void BackendRunner::Stop() {
   if (!running_.exchange(false)) return;
   backend_->Stop();
   std::vector<std::thread> threads;
+  std::list<Handler> handlers;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     threads.swap(threads_);
+    handlers.swap(handlers_);
   }
   for (auto& t : threads) t.join();
+  for (auto& h : handlers) h.thread.join();
   backend_->SetNewAgentCallback({});
   backend_->Resume();
 }
 
 size_t BackendRunner::num_threads() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return threads_.size();
+  size_t running_handlers = 0;
+  for (const Handler& h : handlers_) running_handlers += h.ended->load() ? 0 : 1;
+  return threads_.size() + running_handlers;
 }
 
 }  // namespace ccm::server

@@ -77,6 +77,8 @@ class KeyframeReassembly {
   /// `out` (the batch's reference keyframe becomes the one named with the keyframe). Returns
   /// per agent how many left without all their points.
   std::map<AgentId, int64_t> Release(Clock::time_point now, BatchSet* out);
+  /// Drops everything held or remembered for `agent` (its slot was released).
+  void Forget(AgentId agent) { agents_.erase(agent); }
   /// When the oldest held keyframe leaves even without its points; nullopt when none is held.
   std::optional<Clock::time_point> NextDeadline() const;
   size_t held() const;

@@ -178,6 +178,7 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
                                            std::shared_ptr<const Vocabulary> vocabulary, std::string* error) {
   ServerOptions options;
   options.max_agents = config.max_agents;
+  options.agent_slot_release_s = config.agent_slot_release_s;
   options.neighbourhood_k = config.neighbourhood_k;
   if (config.load_map.empty()) return std::make_unique<ServerBackend>(vocabulary, options);
   std::string warning;

@@ -101,26 +101,56 @@ void ServerComm::Run() {
 }
 
 bool ServerComm::Admit(AgentId agent, const char* what) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = stats_.agents.find(agent);
-  if (it == stats_.agents.end()) {
-    if (stats_.agents.size() >= static_cast<size_t>(config_.max_agents)) {
-      ++stats_.refused_agents;
-      if (refused_logged_.insert(agent).second) {
-        spdlog::warn("refusing agent {} ({}): max_agents = {} reached", agent, what, config_.max_agents);
+  std::vector<AgentId> released;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = stats_.agents.find(agent);
+    if (it == stats_.agents.end()) {
+      if (stats_.agents.size() >= static_cast<size_t>(config_.max_agents)) released = ReleaseIdleAgentsLocked();
+      if (stats_.agents.size() >= static_cast<size_t>(config_.max_agents)) {
+        ++stats_.refused_agents;
+        if (refused_logged_.insert(agent).second) {
+          spdlog::warn("refusing agent {} ({}): max_agents = {} reached", agent, what, config_.max_agents);
+        }
+        return false;
       }
-      return false;
+      it = stats_.agents.emplace(agent, AgentLink{}).first;
+      spdlog::info("agent {} joined", agent);
     }
-    it = stats_.agents.emplace(agent, AgentLink{}).first;
-    spdlog::info("agent {} joined", agent);
+    AgentLink& link = it->second;
+    link.last_seen_s = Elapsed();
+    if (!link.alive) {
+      if (link.leaves > 0) spdlog::info("agent {} is back", agent);
+      link.alive = true;
+    }
   }
-  AgentLink& link = it->second;
-  link.last_seen_s = Elapsed();
-  if (!link.alive) {
-    if (link.leaves > 0) spdlog::info("agent {} is back", agent);
-    link.alive = true;
+  // Outside the stats lock: deleting DDS writers calls into DDS.
+  for (const AgentId a : released) {
+    states_.erase(a);
+    writers_.erase(a);
+    reassembly_.Forget(a);
   }
   return true;
+}
+
+std::vector<AgentId> ServerComm::ReleaseIdleAgentsLocked() {
+  std::vector<AgentId> out;
+  if (config_.agent_slot_release_s <= 0.0) return out;
+  const double now = Elapsed();
+  for (auto it = stats_.agents.begin(); it != stats_.agents.end();) {
+    const double silent = now - it->second.last_seen_s;
+    if (!it->second.alive && silent >= config_.agent_slot_release_s) {
+      spdlog::info("agent {}: slot released for a new agent after {:.0f} s of silence (its maps stay)", it->first,
+                   silent);
+      out.push_back(it->first);
+      refused_logged_.erase(it->first);
+      it = stats_.agents.erase(it);
+      ++stats_.released_agents;
+    } else {
+      ++it;
+    }
+  }
+  return out;
 }
 
 bool ServerComm::FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer, AgentId agent, const char* what) {

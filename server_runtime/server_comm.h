@@ -23,7 +23,9 @@
 //  * no polling: the readers signal one Wakeup; the comm thread sleeps until a sample
 //    arrives, an agent's next publish time, or a held keyframe's deadline.
 //  * liveliness: an agent that sent nothing (heartbeat included) for liveliness_timeout_s has
-//    left; its maps stay, and it is logged when it returns.
+//    left; its maps stay, and it is logged when it returns. Once it has been silent for
+//    agent_slot_release_s, a new agent beyond max_agents takes its slot (its link, writers
+//    and reassembly state go; the back-end frees its queue the same way).
 // Stats() and the counters are readable from any thread.
 #pragma once
 
@@ -84,6 +86,7 @@ void ApplyStatus(const conv::AgentStatusData& status, AgentLink* link);
 struct ServerCommStats {
   std::map<AgentId, AgentLink> agents;
   int64_t refused_agents = 0;         ///< messages from agents beyond max_agents
+  int64_t released_agents = 0;        ///< silent agents whose slot went to a new agent
   int64_t rejected = 0;
   std::map<std::string, int64_t> rejected_by_kind;
   /// Messages whose agent id is not the one of the partition they were written in
@@ -143,6 +146,8 @@ class ServerComm {
   void OnKeyframeUpdate(AgentId agent, const msg::KeyframeUpdate& m, BatchSet* batches);
   void OnPointUpdates(AgentId agent, const msg::MapPointUpdateBatch& m, BatchSet* batches);
   bool Admit(AgentId agent, const char* what);
+  /// Drops the links of agents silent for agent_slot_release_s (mutex_ held); their ids.
+  std::vector<AgentId> ReleaseIdleAgentsLocked();
   void Reject(AgentId agent, const std::string& reason);
   /// True when `writer` writes in agent `agent`'s partition; otherwise counted and false.
   bool FromItsPartition(const eprosima::fastrtps::rtps::GUID_t& writer, AgentId agent, const char* what);

@@ -11,6 +11,9 @@ std::string ServerConfig::Validate() const {
   if (max_agents < 1 || max_agents > 64) return "max_agents must be in 1..64 (see resource limits in the QoS file)";
   if (neighbourhood_k < 0 || neighbourhood_k > 16) return "neighbourhood_k must be in 0..16 (idl kMaxKeyframesPerServerMsg)";
   if (!(liveliness_timeout_s > 0.0)) return "liveliness_timeout_s must be > 0";
+  if (!(agent_slot_release_s == 0.0 || agent_slot_release_s >= liveliness_timeout_s)) {
+    return "agent_slot_release_s must be 0 (never) or >= liveliness_timeout_s";
+  }
   if (participant_profile.empty()) return "participant_profile must not be empty";
   if (!(autosave_s == 0.0 || autosave_s >= 1.0)) return "autosave_s must be 0 (off) or >= 1";
   if (!(status_period_s >= 0.1 && status_period_s <= 60.0)) return "status_period_s must be in [0.1, 60]";
@@ -34,6 +37,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("map_sharing", &config->map_sharing);
   r.Get("neighbourhood_k", &config->neighbourhood_k);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);
+  r.Get("agent_slot_release_s", &config->agent_slot_release_s);
   r.Get("vocabulary", &config->vocabulary);
   r.Get("load_map", &config->load_map);
   r.Get("save_map", &config->save_map);

@@ -19,6 +19,7 @@ struct ServerConfig {
   bool map_sharing = true;           // send each agent the k keyframes most covisible with its reference KF
   int neighbourhood_k = 5;           // that k (CCM-SLAM: 5)
   double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)
+  double agent_slot_release_s = 600.0;  // silent this long: a new agent beyond max_agents takes its slot (0: never)
   std::string vocabulary;            // bag-of-words vocabulary file; empty: the built-in simulator one
   std::string load_map;              // start from this saved map stack (empty: fresh)
   std::string save_map;              // save the map stack here on exit (empty: not saved)

@@ -61,6 +61,7 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
   const nlohmann::json j = {{"elapsed_s", comm.elapsed_s},
                             {"agents", agents},
                             {"refused_agents", comm.refused_agents},
+                            {"released_agents", comm.released_agents},
                             {"rejected", comm.rejected},
                             {"rejected_by_kind", comm.rejected_by_kind},
                             {"wrong_partition", comm.wrong_partition},

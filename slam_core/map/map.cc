@@ -340,4 +340,15 @@ double MedianSceneDepth(const Map& map, const KeyFrame& kf) {
   return depths[depths.size() / 2];
 }
 
+KeyframeId SpanningTreeAncestor(const Map& map, KeyframeId id, const std::function<bool(KeyframeId)>& accept,
+                                int max_hops) {
+  for (int hop = 0; hop <= max_hops && id.valid(); ++hop) {
+    if (accept(id)) return id;
+    const auto kf = map.keyframe(id);
+    if (!kf) return KeyframeId::Invalid();
+    id = kf->parent();
+  }
+  return KeyframeId::Invalid();
+}
+
 }  // namespace ccm

@@ -11,6 +11,7 @@
 //  Lock order: graph_mutex_ -> tables_mutex_ -> one object mutex. Never two object mutexes.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <shared_mutex>
@@ -92,5 +93,11 @@ class Map {
 
 /// Median depth of the good points `kf` observes, in its camera frame; 0 if it sees none.
 double MedianSceneDepth(const Map& map, const KeyFrame& kf);
+
+/// The nearest of `id` and its spanning-tree ancestors that `accept` takes (a keyframe added
+/// after a snapshot follows the correction of the newest one that was in it); invalid if
+/// none within `max_hops` or the chain leaves the map.
+KeyframeId SpanningTreeAncestor(const Map& map, KeyframeId id, const std::function<bool(KeyframeId)>& accept,
+                                int max_hops = 256);
 
 }  // namespace ccm

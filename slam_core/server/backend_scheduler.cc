@@ -29,16 +29,19 @@ BackendScheduler::Admission BackendScheduler::Admit(
     bool* first_of_agent) {
   const AgentId agent = batch.agent;
   *first_of_agent = false;
+  int released = 0;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     const bool is_new = !queues_.count(agent);
+    if (is_new && static_cast<int>(queues_.size()) >= limits_.max_agents) released = ReleaseIdleSlotsLocked();
     if (is_new && static_cast<int>(queues_.size()) >= limits_.max_agents) return Admission::kAgentRefused;
     AgentQueue& q = queues_[agent];
     if (is_new) q.registration = make_registration();
     // Registration opens a map for the segment of every item, not only the batch's.
+    std::set<uint64_t>& segments = segments_[agent];
     std::set<uint64_t> fresh;
     for (const uint64_t s : SegmentsOf(batch)) {
-      if (!q.segments.count(s)) fresh.insert(s);
+      if (!segments.count(s)) fresh.insert(s);
     }
     const size_t bytes = ApproxBatchBytes(batch);
     Admission refusal = Admission::kQueued;
@@ -46,7 +49,7 @@ BackendScheduler::Admission BackendScheduler::Admit(
       refusal = Admission::kQueueFull;
     } else if (!q.batches.empty() && q.bytes + bytes > limits_.max_bytes_per_agent) {
       refusal = Admission::kQueueBytes;
-    } else if (static_cast<int>(q.segments.size() + fresh.size()) > limits_.max_segments_per_agent) {
+    } else if (static_cast<int>(segments.size() + fresh.size()) > limits_.max_segments_per_agent) {
       refusal = Admission::kSegments;
     }
     if (refusal != Admission::kQueued) {
@@ -54,28 +57,57 @@ BackendScheduler::Admission BackendScheduler::Admit(
       // would take a slot and make its next batch look like a known agent's, which never
       // starts a handler.
       if (is_new) queues_.erase(agent);
+      if (segments.empty()) segments_.erase(agent);
       return refusal;
     }
-    q.segments.insert(fresh.begin(), fresh.end());
+    segments.insert(fresh.begin(), fresh.end());
+    q.last_admitted = Clock::now();
     if (!batch.empty()) {
       q.batches.push_back(std::move(batch));
       q.bytes += bytes;
     }
-    *first_of_agent = is_new;
+    known_.insert(agent);
+    // A released agent whose handler stage has not noticed yet keeps that one.
+    *first_of_agent = is_new && with_handler_.insert(agent).second;
   }
   queue_cv_.notify_all();
+  if (released > 0) NotifyIdleChange();
   return Admission::kQueued;
 }
 
+int BackendScheduler::ReleaseIdleSlotsLocked() {
+  if (limits_.release_idle_after <= Clock::duration::zero()) return 0;
+  const auto now = Clock::now();
+  int released = 0;
+  for (auto it = queues_.begin(); it != queues_.end();) {
+    const AgentQueue& q = it->second;
+    if (q.batches.empty() && !q.busy && now - q.last_admitted >= limits_.release_idle_after) {
+      it = queues_.erase(it);
+      ++released;
+    } else {
+      ++it;
+    }
+  }
+  slots_released_ += released;
+  return released;
+}
+
 std::optional<BackendScheduler::AgentWork> BackendScheduler::TakeBatch(AgentId agent,
-                                                                       std::chrono::milliseconds timeout) {
+                                                                       std::chrono::milliseconds timeout,
+                                                                       bool* released) {
   std::unique_lock<std::mutex> lock(queue_mutex_);
   auto ready = [&] {
     const auto it = queues_.find(agent);
-    return stopping_ || (it != queues_.end() && !it->second.batches.empty() && !it->second.busy);
+    return stopping_ || it == queues_.end() || (!it->second.batches.empty() && !it->second.busy);
   };
   if (!queue_cv_.wait_for(lock, timeout, ready) || stopping_) return std::nullopt;
-  AgentQueue& q = queues_.at(agent);
+  const auto it = queues_.find(agent);
+  if (it == queues_.end()) {
+    with_handler_.erase(agent);
+    if (released != nullptr) *released = true;
+    return std::nullopt;
+  }
+  AgentQueue& q = it->second;
   AgentWork work{std::move(q.batches.front()), q.registration.get()};
   q.batches.pop_front();
   q.bytes -= ApproxBatchBytes(work.batch);
@@ -136,9 +168,18 @@ void BackendScheduler::RequestGlobalBa(MapId map) {
   opt_cv_.notify_all();
 }
 
-void BackendScheduler::AbortGlobalBaOf(MapId a, MapId b) {
+void BackendScheduler::HoldGlobalBaOf(MapId a, MapId b) {
   std::lock_guard<std::mutex> lock(opt_mutex_);
   if (ba_running_.valid() && (ba_running_ == a || ba_running_ == b)) abort_ba_ = true;
+  ba_held_ = {a, b};
+}
+
+void BackendScheduler::ReleaseGlobalBaHold() {
+  {
+    std::lock_guard<std::mutex> lock(opt_mutex_);
+    ba_held_.clear();
+  }
+  opt_cv_.notify_all();
 }
 
 void BackendScheduler::ForgetGlobalBa(MapId map) {
@@ -153,6 +194,7 @@ std::optional<BackendScheduler::OptimizationJob> BackendScheduler::TakeOptimizat
   auto next_ba = [&]() -> std::optional<std::pair<MapId, Clock::time_point>> {
     std::optional<std::pair<MapId, Clock::time_point>> best;
     for (const MapId m : ba_pending_) {
+      if (ba_held_.count(m)) continue;
       const auto it = ba_not_before_.find(m);
       const Clock::time_point t = respect_pause && it != ba_not_before_.end() ? it->second : Clock::time_point();
       if (!best || t < best->second) best = std::make_pair(m, t);
@@ -265,9 +307,12 @@ QueueDepths BackendScheduler::Depths() const {
 
 std::vector<AgentId> BackendScheduler::Agents() const {
   std::lock_guard<std::mutex> lock(queue_mutex_);
-  std::vector<AgentId> out;
-  for (const auto& [a, q] : queues_) out.push_back(a);
-  return out;
+  return std::vector<AgentId>(known_.begin(), known_.end());
+}
+
+int64_t BackendScheduler::slots_released() const {
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  return slots_released_;
 }
 
 }  // namespace ccm

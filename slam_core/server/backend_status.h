@@ -41,6 +41,7 @@ struct BackendStats {
   int64_t global_ba_applied = 0, global_ba_aborted = 0, global_ba_stale = 0;
   int64_t keyframes_removed = 0;     ///< redundancy removal
   int64_t batches_rejected = 0;      ///< whole batches refused (protocol, max_agents)
+  int64_t agent_slots_released = 0;  ///< idle agents' slots given to new agents
   std::vector<std::pair<int, double>> global_ba_seconds;  ///< (keyframes, seconds) per applied run
   PlaceMatcherStats place;
 };

@@ -41,7 +41,8 @@ DetectionOutcome DetectionStage::CloseLoopOf(const PlaceDetection& d, ServerEven
   e.seconds = r.seconds;
   e.detail = "moved " + std::to_string(r.correction_m) + " m / " + std::to_string(r.correction_deg) + " deg, scale x" +
              std::to_string(r.scale_correction) + ", " + std::to_string(r.points_fused) + " points fused, " +
-             std::to_string(r.loop_connections) + " loop connections";
+             std::to_string(r.loop_connections) + " loop connections, pose graph " + std::to_string(r.pose_graph_s) +
+             " s unlocked, map locked " + std::to_string(r.locked_s) + " s";
   if (options_.optimization.global_ba_after_loop) out.optimize = r.map;
   out.event = std::move(e);
   return out;

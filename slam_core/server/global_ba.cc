@@ -64,17 +64,6 @@ Snapshot TakeSnapshot(const ServerMap& smap, int min_observations) {
   return s;
 }
 
-// The snapshot keyframe whose correction a keyframe added meanwhile follows.
-KeyframeId SnapshotAncestor(const Map& map, KeyframeId id, const std::unordered_map<KeyframeId, SE3>& corrections) {
-  for (int hop = 0; hop < 256 && id.valid(); ++hop) {
-    if (corrections.count(id)) return id;
-    const auto kf = map.keyframe(id);
-    if (!kf) return KeyframeId::Invalid();
-    id = kf->parent();
-  }
-  return KeyframeId::Invalid();
-}
-
 }  // namespace
 
 const char* GlobalBaOutcomeName(GlobalBaReport::Outcome outcome) {
@@ -155,9 +144,10 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   for (size_t k = 0; k < snap.kf_ids.size(); ++k) {
     corrections.emplace(snap.kf_ids[k], snap.problem.poses[k].world_from_cam * poses_before[k].world_from_cam.inverse());
   }
+  const auto in_snapshot_kf = [&corrections](KeyframeId id) { return corrections.count(id) > 0; };
   std::vector<KeyframeId> settled;
   for (const auto& kf : map.keyframes()) {
-    const KeyframeId anc = SnapshotAncestor(map, kf->id(), corrections);
+    const KeyframeId anc = SpanningTreeAncestor(map, kf->id(), in_snapshot_kf);
     if (!anc.valid()) continue;
     if (anc != kf->id()) ++r.keyframes_added_meanwhile;
     kf->SetWorldFromCam(corrections.at(anc) * kf->world_from_cam());
@@ -172,7 +162,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
       mp->SetPosition(snap.problem.points[p].position_w + (mp->position() - points_before[p].position_w));
       continue;
     }
-    const KeyframeId anc = SnapshotAncestor(map, mp->reference_kf(), corrections);
+    const KeyframeId anc = SpanningTreeAncestor(map, mp->reference_kf(), in_snapshot_kf);
     if (anc.valid()) mp->SetPosition(corrections.at(anc) * mp->position());
   }
   for (const auto& [kf, mp] : gross) map.EraseObservation(kf, mp);

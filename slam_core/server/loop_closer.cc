@@ -1,6 +1,7 @@
 #include "slam_core/server/loop_closer.h"
 
 #include <chrono>
+#include <functional>
 #include <set>
 #include <unordered_set>
 
@@ -9,6 +10,9 @@
 
 namespace ccm {
 namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 constexpr double kLoopFusionRadiusPx = 4.0;  // ORB-SLAM's SearchAndFuse radius for loops
 
@@ -44,10 +48,25 @@ void FuseVerifiedMatches(Map* map, const KeyFrame& c, const KeyFrame& q, const s
   }
 }
 
+// Each handler's lambda follows the scale change `scale_of` gives for its newest keyframe
+// (or the keyframe its newest near-duplicate is anchored to).
+void RescaleHandlers(MapStack* stack, const ServerMap& smap, const std::function<double(KeyframeId)>& scale_of) {
+  for (const AgentHandler& h : stack->HandlersOfMap(smap.id())) {
+    KeyframeId node = h.last_keyframe;
+    if (!smap.map().keyframe(node)) {
+      const auto anchor = smap.Anchor(node);
+      node = anchor ? anchor->base : KeyframeId::Invalid();
+    }
+    if (!node.valid()) continue;
+    const double s = scale_of(node);
+    if (s != 1.0) stack->EditHandler(h.agent, h.segment, [s](AgentHandler* e) { e->scale *= s; });
+  }
+}
+
 }  // namespace
 
 LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   LoopReport r;
   r.map = d.query_map;
   r.query = d.query;
@@ -58,6 +77,7 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
     return r;
   }
   std::unique_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+  auto t_locked = Clock::now();
   Map& map = smap->map();
   const auto q = map.keyframe(d.query), c = map.keyframe(d.candidate);
   if (smap->retired() || !q || !c) {
@@ -93,6 +113,11 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
     }
   }
   for (const auto& n : hood) n->SetWorldFromCam(opt::RigidPose(corr.corrected.at(n->id())));
+  // Handlers and anchors of the neighbourhood take its scale now: keyframes registered
+  // while the pose graph is solved then match their neighbours.
+  const auto hood_scale = [&corr, s = corrected_q.scale()](KeyframeId id) { return corr.corrected.count(id) ? s : 1.0; };
+  RescaleHandlers(stack, *smap, hood_scale);
+  smap->RescaleAnchors(hood_scale);
 
   PointFusionResult fusion;
   FuseVerifiedMatches(&map, *c, *q, d.matches, &fusion);
@@ -115,14 +140,26 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
   r.neighbourhood = static_cast<int>(hood.size());
   r.loop_connections = static_cast<int>(corr.loop_connections.size());
 
+  // The pose graph is solved with the lock released: registration goes on meanwhile (its
+  // keyframes hang off the corrected neighbourhood and follow their ancestor's correction).
+  // The generation bump makes a global BA snapshot taken before this point come back stale;
+  // the caller holds new ones back until the loop is applied.
+  EssentialGraphProblem graph = BuildEssentialGraphProblem(map, corr);
+  smap->BumpGeneration();
+  r.locked_s = Since(t_locked);
+  lock.unlock();
+
   opt::PoseGraphOptions pg;
   pg.max_iterations = options.optimization.pose_graph_iterations;
-  CorrectionResult result = OptimizeEssentialGraph(map, corr, pg);
+  CorrectionResult result = SolveEssentialGraph(std::move(graph), pg);
   r.pose_graph_s = result.seconds;
-  if (result.ok) {
+
+  lock.lock();
+  t_locked = Clock::now();
+  if (result.ok && !smap->retired()) {
     // Points moved with the neighbourhood are consistent with the keyframe that moved them.
     for (const auto& [mp, kf] : moved_by) result.point_reference.emplace(mp, kf);
-    ApplyCorrection(&map, result);
+    r.keyframes_added_meanwhile = ApplyCorrection(&map, result).keyframes_added_meanwhile;
     smap->RescaleAnchors([&result](KeyframeId root) {
       const auto o = result.optimized.find(root), i = result.initial.find(root);
       return o != result.optimized.end() && i != result.initial.end() ? o->second.scale() / i->second.scale() : 1.0;
@@ -134,24 +171,20 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
       Eigen::AngleAxisd(query_before.rotation().conjugate() * query_after.rotation()).angle() * 180.0 / M_PI;
   r.scale_correction = result.ok ? result.optimized.at(q->id()).scale() : corrected_q.scale();
 
-  // Each handler's lambda follows the scale change around its newest keyframe.
-  for (const AgentHandler& h : stack->HandlersOfMap(smap->id())) {
-    KeyframeId node = h.last_keyframe;
-    if (!map.keyframe(node)) {
-      const auto anchor = smap->Anchor(node);
-      node = anchor ? anchor->base : KeyframeId::Invalid();
-    }
-    const auto it = result.optimized.find(node);
-    if (it == result.optimized.end()) continue;
-    const double s = it->second.scale();
-    stack->EditHandler(h.agent, h.segment, [s](AgentHandler* e) { e->scale *= s; });
+  if (result.ok) {
+    RescaleHandlers(stack, *smap, [&](KeyframeId node) {
+      const KeyframeId anc =
+          SpanningTreeAncestor(map, node, [&result](KeyframeId id) { return result.optimized.count(id) > 0; });
+      return anc.valid() ? result.optimized.at(anc).scale() / result.initial.at(anc).scale() : 1.0;
+    });
   }
   std::vector<KeyframeId> all;
   for (const auto& kf : map.keyframes()) all.push_back(kf->id());
   smap->MarkSettled(all);
   smap->BumpGeneration();
   r.closed = true;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.locked_s += Since(t_locked);
+  r.seconds = Since(t0);
   return r;
 }
 

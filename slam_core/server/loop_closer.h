@@ -3,7 +3,10 @@
 // their points with them; the candidate side's points are fused into the corrected
 // neighbourhood; the essential graph is optimized with the new loop connections; every
 // keyframe and point of the map takes the correction. A global BA follows (the caller
-// schedules it). Synchronous; takes the map's structure lock exclusively for the whole step.
+// schedules it). Synchronous. Takes the map's structure lock exclusively to move the
+// neighbourhood and build the pose graph, releases it while the pose graph is solved, and
+// takes it again to apply the result: the caller must keep global BAs of the map from
+// starting until CloseLoop returns (BackendScheduler::HoldGlobalBaOf).
 #pragma once
 
 #include "slam_core/server/map_stack.h"
@@ -23,7 +26,9 @@ struct LoopReport {
   double correction_m = 0.0;   ///< how far the query keyframe moved
   double correction_deg = 0.0;
   double scale_correction = 1.0;
+  int keyframes_added_meanwhile = 0;  ///< registered while the pose graph was solved
   double pose_graph_s = 0.0;
+  double locked_s = 0.0;              ///< time the map's structure lock was held exclusively
   double seconds = 0.0;
 };
 

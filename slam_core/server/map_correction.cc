@@ -4,11 +4,10 @@
 
 namespace ccm {
 
-CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorrection& c,
-                                        const opt::PoseGraphOptions& options) {
-  CorrectionResult out;
+EssentialGraphProblem BuildEssentialGraphProblem(const Map& map, const EssentialGraphCorrection& c) {
+  EssentialGraphProblem out;
+  opt::PoseGraphProblem& problem = out.problem;
   const EssentialGraph graph = map.BuildEssentialGraph();
-  opt::PoseGraphProblem problem;
   std::unordered_map<KeyframeId, int> index;
   std::vector<Sim3> before;
   for (const KeyframeId id : graph.nodes) {
@@ -23,8 +22,8 @@ CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorr
     node.fixed = id == c.fixed;
     index.emplace(id, static_cast<int>(problem.nodes.size()));
     problem.nodes.push_back(node);
+    out.ids.push_back(id);
     before.push_back(Sim3(pose_before));
-    out.initial.emplace(id, node.world_from_cam);
   }
   std::set<std::pair<KeyframeId, KeyframeId>> loop_set;
   for (auto [a, b] : c.loop_connections) {
@@ -53,6 +52,13 @@ CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorr
                                                                       : opt::Sim3EdgeKind::kCovisibility);
   }
   for (const auto& [a, b] : loop_set) add_edge(a, b, true, opt::Sim3EdgeKind::kLoop);
+  return out;
+}
+
+CorrectionResult SolveEssentialGraph(EssentialGraphProblem graph, const opt::PoseGraphOptions& options) {
+  CorrectionResult out;
+  opt::PoseGraphProblem& problem = graph.problem;
+  for (size_t n = 0; n < problem.nodes.size(); ++n) out.initial.emplace(graph.ids[n], problem.nodes[n].world_from_cam);
   out.nodes = static_cast<int>(problem.nodes.size());
   out.edges = static_cast<int>(problem.edges.size());
   if (problem.edges.empty()) return out;
@@ -61,32 +67,45 @@ CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorr
   out.iterations = s.iterations;
   out.seconds = s.solve_time_s;
   if (!out.ok) return out;
-  for (const auto& n : problem.nodes) out.optimized.emplace(KeyframeId(n.id), n.world_from_cam);
+  for (size_t n = 0; n < problem.nodes.size(); ++n) out.optimized.emplace(graph.ids[n], problem.nodes[n].world_from_cam);
   return out;
 }
 
-void ApplyCorrection(Map* map, const CorrectionResult& r) {
-  for (const auto& [id, s] : r.optimized) {
-    if (const auto kf = map->keyframe(id)) kf->SetWorldFromCam(opt::RigidPose(s));
+CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorrection& c,
+                                        const opt::PoseGraphOptions& options) {
+  return SolveEssentialGraph(BuildEssentialGraphProblem(map, c), options);
+}
+
+ApplyCorrectionReport ApplyCorrection(Map* map, const CorrectionResult& r) {
+  ApplyCorrectionReport rep;
+  std::unordered_map<KeyframeId, Sim3> delta;  // world-frame correction S_opt * S_initial^-1
+  for (const auto& [id, s] : r.optimized) delta.emplace(id, s * r.initial.at(id).inverse());
+  const auto corrected = [&delta](KeyframeId id) { return delta.count(id) > 0; };
+  for (const auto& kf : map->keyframes()) {
+    const KeyframeId anc = SpanningTreeAncestor(*map, kf->id(), corrected);
+    if (!anc.valid()) continue;
+    ++rep.keyframes;
+    rep.keyframes_added_meanwhile += anc != kf->id();
+    kf->SetWorldFromCam(opt::RigidPose(delta.at(anc) * Sim3(kf->world_from_cam())));
   }
   for (const auto& mp : map->map_points()) {
     const auto override_it = r.point_reference.find(mp->id());
-    KeyframeId ref = override_it != r.point_reference.end() ? override_it->second : mp->reference_kf();
-    if (!r.optimized.count(ref)) {
-      const auto obs = mp->observations();
+    KeyframeId ref = override_it != r.point_reference.end() ? override_it->second
+                                                            : SpanningTreeAncestor(*map, mp->reference_kf(), corrected);
+    if (!corrected(ref)) {
       ref = KeyframeId::Invalid();
-      for (const auto& [kf, idx] : obs) {
-        if (r.optimized.count(kf)) {
+      for (const auto& [kf, idx] : mp->observations()) {
+        if (corrected(kf)) {
           ref = kf;
           break;
         }
       }
       if (!ref.valid()) continue;
     }
-    const Sim3& opt_pose = r.optimized.at(ref);
-    const Sim3& init = r.initial.at(ref);
-    mp->SetPosition(opt_pose * (init.inverse() * mp->position()));
+    ++rep.points;
+    mp->SetPosition(delta.at(ref) * mp->position());
   }
+  return rep;
 }
 
 }  // namespace ccm

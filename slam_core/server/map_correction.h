@@ -3,7 +3,12 @@
 // spanning tree, strong covisibility and loop edges measured from the poses before the loop
 // correction, plus the new loop connections measured from the corrected poses; then every
 // keyframe takes its optimized pose (scale folded into its position) and every point moves
-// with its reference keyframe. Synchronous; the caller holds the map exclusively.
+// with its reference keyframe.
+//
+// Three steps so that the optimization needs no lock: BuildEssentialGraphProblem reads the
+// map (the caller holds it), SolveEssentialGraph touches no map, ApplyCorrection writes the
+// result as world-frame corrections (the caller holds the map exclusively), so keyframes and
+// points added meanwhile follow their spanning-tree ancestor / reference keyframe.
 #pragma once
 
 #include <unordered_map>
@@ -22,6 +27,12 @@ struct EssentialGraphCorrection {
   KeyframeId fixed;                                ///< gauge (the loop candidate)
 };
 
+/// The pose graph of a map, copied out of it: solvable with no lock held.
+struct EssentialGraphProblem {
+  opt::PoseGraphProblem problem;
+  std::vector<KeyframeId> ids;  ///< keyframe of each node
+};
+
 struct CorrectionResult {
   bool ok = false;
   int nodes = 0, edges = 0, iterations = 0;
@@ -33,12 +44,25 @@ struct CorrectionResult {
   std::unordered_map<MapPointId, KeyframeId> point_reference;
 };
 
+EssentialGraphProblem BuildEssentialGraphProblem(const Map& map, const EssentialGraphCorrection& correction);
+CorrectionResult SolveEssentialGraph(EssentialGraphProblem graph, const opt::PoseGraphOptions& options);
+
+/// Build + solve in one call (the caller holds the map for both).
 CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorrection& correction,
                                         const opt::PoseGraphOptions& options);
 
-/// Writes the optimized poses and moves every point with its reference keyframe (the
-/// point_reference override, else its reference, else its first observer):
-/// p' = S_opt(ref) * S_initial(ref)^-1 * p.
-void ApplyCorrection(Map* map, const CorrectionResult& result);
+struct ApplyCorrectionReport {
+  int keyframes = 0;
+  int keyframes_added_meanwhile = 0;  ///< not in the graph; moved with their ancestor
+  int points = 0;
+};
+
+/// Moves every keyframe by its correction D = S_opt * S_initial^-1 (p' = D * p for its
+/// position, RigidPose for the pose), applied to its current pose: a keyframe in the graph
+/// that did not move since the build ends exactly at its optimized pose. A keyframe added
+/// since takes its spanning-tree ancestor's correction. Every point moves with the
+/// correction of its point_reference override, else its reference keyframe (or that one's
+/// ancestor), else its first corrected observer.
+ApplyCorrectionReport ApplyCorrection(Map* map, const CorrectionResult& result);
 
 }  // namespace ccm

@@ -46,6 +46,8 @@ BackendScheduler::Limits LimitsOf(const ServerOptions& o) {
   l.max_batches_per_agent = o.max_queued_batches_per_agent;
   l.max_bytes_per_agent = o.max_queued_bytes_per_agent;
   l.max_segments_per_agent = o.max_segments_per_agent;
+  l.release_idle_after = std::chrono::duration_cast<BackendScheduler::Clock::duration>(
+      std::chrono::duration<double>(o.agent_slot_release_s));
   return l;
 }
 
@@ -139,12 +141,13 @@ int ServerBackend::Submit(AgentBatch batch) {
   return rejected;
 }
 
-bool ServerBackend::RunHandlerOnce(AgentId agent, std::chrono::milliseconds timeout) {
-  const auto work = scheduler_.TakeBatch(agent, timeout);
-  if (!work) return false;
+ServerBackend::HandlerStep ServerBackend::RunHandlerOnce(AgentId agent, std::chrono::milliseconds timeout) {
+  bool released = false;
+  const auto work = scheduler_.TakeBatch(agent, timeout, &released);
+  if (!work) return released ? HandlerStep::kAgentReleased : HandlerStep::kIdle;
   ProcessBatch(work->registration, work->batch);
   scheduler_.BatchDone(agent);
-  return true;
+  return HandlerStep::kProcessed;
 }
 
 void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch) {
@@ -223,15 +226,18 @@ bool ServerBackend::RunPlaceRecognitionOnce(std::chrono::milliseconds timeout) {
 }
 
 void ServerBackend::HandleDetection(const PlaceDetection& d) {
-  scheduler_.AbortGlobalBaOf(d.query_map, d.candidate_map);
+  scheduler_.HoldGlobalBaOf(d.query_map, d.candidate_map);
   DetectionOutcome outcome = detection_.Handle(d, Elapsed());
+  if (outcome.event) {
+    if (outcome.forget.valid()) scheduler_.ForgetGlobalBa(outcome.forget);
+    if (outcome.optimize.valid()) scheduler_.RequestGlobalBa(outcome.optimize);
+  }
+  scheduler_.ReleaseGlobalBaHold();
   if (!outcome.event) return;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++(outcome.event->kind == ServerEvent::Kind::kLoop ? stats_.loops : stats_.fusions);
   }
-  if (outcome.forget.valid()) scheduler_.ForgetGlobalBa(outcome.forget);
-  if (outcome.optimize.valid()) scheduler_.RequestGlobalBa(outcome.optimize);
   AddEvent(std::move(*outcome.event));
 }
 
@@ -305,7 +311,7 @@ void ServerBackend::ProcessAllQueued() {
   for (;;) {
     bool worked = false;
     for (const AgentId a : scheduler_.Agents()) {
-      while (RunHandlerOnce(a, std::chrono::milliseconds(0))) worked = true;
+      while (RunHandlerOnce(a, std::chrono::milliseconds(0)) == HandlerStep::kProcessed) worked = true;
     }
     while (RunPlaceRecognitionOnce(std::chrono::milliseconds(0))) worked = true;
     while (RunOptimization(std::chrono::milliseconds(0), /*respect_pause=*/false)) worked = true;
@@ -337,6 +343,7 @@ BackendStatus ServerBackend::Status() const {
   s.stats.place = matcher_.stats();
   s.queues = scheduler_.Depths();
   s.agents = scheduler_.Agents();
+  s.stats.agent_slots_released = scheduler_.slots_released();
   s.idle = scheduler_.Idle();
   return s;
 }

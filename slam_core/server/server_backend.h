@@ -62,12 +62,16 @@ class ServerBackend {
   /// agent beyond max_agents is refused, a batch for a full queue dropped (both counted).
   /// Returns the number of items rejected, -1 if the whole batch was refused or dropped.
   int Submit(AgentBatch batch);
-  /// Called (from Submit's thread) the first time an agent submits: the runner starts its
-  /// handler thread. Set before the first Submit.
+  /// Called (from Submit's thread) when an agent with no handler stage submits (its first
+  /// batch, or its first after its slot was released): the runner starts its handler
+  /// thread. Set before the first Submit.
   void SetNewAgentCallback(std::function<void(AgentId)> callback);
 
   /// Stage threads; each waits up to `timeout` for work, returns whether it did some.
-  bool RunHandlerOnce(AgentId agent, std::chrono::milliseconds timeout);
+  /// A handler stage whose agent holds no slot (released after ServerOptions::
+  /// agent_slot_release_s idle) gets kAgentReleased and ends.
+  enum class HandlerStep { kIdle, kProcessed, kAgentReleased };
+  HandlerStep RunHandlerOnce(AgentId agent, std::chrono::milliseconds timeout);
   bool RunPlaceRecognitionOnce(std::chrono::milliseconds timeout);
   bool RunOptimizationOnce(std::chrono::milliseconds timeout);
   /// Wakes every waiting stage and aborts a running global BA (shutdown); stages return

@@ -70,6 +70,7 @@ std::string ServerOptions::Validate() const {
     if (!e.empty()) return e;
   }
   if (max_agents < 1 || max_agents > 65535) return "max_agents must be in 1..65535";
+  if (!(agent_slot_release_s >= 0.0)) return "agent_slot_release_s must be >= 0 (0: never)";
   if (max_queued_batches_per_agent < 1) return "max_queued_batches_per_agent must be >= 1";
   if (max_queued_bytes_per_agent < (size_t{1} << 20)) return "max_queued_bytes_per_agent must be >= 1 MiB";
   if (max_segments_per_agent < 1) return "max_segments_per_agent must be >= 1";

@@ -131,6 +131,10 @@ struct ServerOptions {
   OptimizationJobOptions optimization;
   RedundancyOptions redundancy;
   int max_agents = 64;
+  /// An agent that submitted nothing for this long gives its slot (queue, registration
+  /// state, handler thread) to a new agent beyond max_agents; its maps stay, and if it comes
+  /// back it takes a free slot again. 0: slots are never released.
+  double agent_slot_release_s = 600.0;
   /// Batches waiting per agent; a batch beyond is dropped and counted (the agent resends
   /// keyframes the server never acknowledges; updates are superseded anyway), so one slow
   /// or flooding agent cannot grow the server's memory.

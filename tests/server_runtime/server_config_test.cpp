@@ -42,6 +42,15 @@ TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
   EXPECT_NE(error.find("autosave_s"), std::string::npos) << error;
   std::ofstream(path) << "autosave_s: 0\n";
   EXPECT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  // A slot is released only after the agent was declared gone; 0 never releases one.
+  std::ofstream(path) << "agent_slot_release_s: 120\n";
+  ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  EXPECT_DOUBLE_EQ(c.agent_slot_release_s, 120.0);
+  std::ofstream(path) << "agent_slot_release_s: 1\nliveliness_timeout_s: 3\n";
+  EXPECT_FALSE(LoadServerConfig(path, &c, &error));
+  EXPECT_NE(error.find("agent_slot_release_s"), std::string::npos) << error;
+  std::ofstream(path) << "agent_slot_release_s: 0\n";
+  EXPECT_TRUE(LoadServerConfig(path, &c, &error)) << error;
 }
 
 // The config the ccm-server package installs (its @CCM_CONFDIR@ filled in as at install time).

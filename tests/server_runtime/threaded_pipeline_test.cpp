@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "server_runtime/backend_runner.h"
 #include "server_runtime/map_view_snapshot.h"
 #include "slam_core/place_recognition/vocabulary.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
@@ -97,6 +98,46 @@ TEST(ThreadedPipeline, AgentsStagesMapViewAndAutosaveRunTogetherConsistently) {
             << " keyframes were registered\n";
   std::remove(path.c_str());
   std::remove(PreviousGeneration(path).c_str());
+}
+
+TEST(BackendRunnerSlots, AReleasedAgentsHandlerThreadEndsAndAReturningAgentGetsANewOne) {
+  std::string error;
+  auto vocab = LoadVocabularyFile(CCM_SIM_VOCAB_FILE, &error);
+  ASSERT_TRUE(vocab) << error;
+  ServerOptions options;
+  options.max_agents = 1;
+  options.agent_slot_release_s = 0.05;
+  ServerBackend backend(std::make_shared<const Vocabulary>(std::move(*vocab)), options);
+  BackendRunner runner(&backend);
+  auto submit = [&](AgentId agent) {
+    AgentBatch b;
+    b.agent = agent;
+    b.segment = MapId::Make(agent, 1);
+    // An update of a point the server does not know: valid, ignored by registration.
+    b.map_point_updates.push_back({MapPointId::Make(agent, 1), KeyframeId::Make(agent, 1), Eigen::Vector3d::Zero()});
+    return backend.Submit(std::move(b));
+  };
+  auto batches_of = [&](AgentId agent) {
+    const auto st = backend.Status().stats;
+    return st.agents.count(agent) ? st.agents.at(agent).batches : 0;
+  };
+  ASSERT_EQ(submit(1), 0);
+  backend.WaitUntilIdle();
+  EXPECT_EQ(batches_of(1), 1);
+  EXPECT_EQ(runner.num_threads(), 3u) << "place recognition, optimization, agent 1";
+  EXPECT_EQ(submit(2), -1) << "one slot, held by agent 1";
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_EQ(submit(2), 0) << "agent 1 has been silent for 100 ms > 50 ms";
+  backend.WaitUntilIdle();
+  EXPECT_EQ(batches_of(2), 1);
+  EXPECT_EQ(backend.Status().stats.agent_slots_released, 1);
+  for (int i = 0; i < 500 && runner.num_threads() != 3u; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(runner.num_threads(), 3u) << "agent 1's handler ended, agent 2's runs";
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_EQ(submit(1), 0) << "agent 1 is back in agent 2's slot";
+  backend.WaitUntilIdle();
+  EXPECT_EQ(batches_of(1), 2) << "a new handler thread processed its batch";
+  runner.Stop();
 }
 
 }  // namespace

@@ -193,10 +193,12 @@ TEST_F(SchedulerTest, ADetectionAbortsOnlyARunningGlobalBaOfItsMaps) {
   scheduler_.RequestGlobalBa(m1);
   scheduler_.RequestGlobalBa(m3);
   ASSERT_EQ(scheduler_.TakeOptimizationJob(milliseconds(0), true)->global_ba, m1);
-  scheduler_.AbortGlobalBaOf(m2, m3);
+  scheduler_.HoldGlobalBaOf(m2, m3);
   EXPECT_FALSE(scheduler_.abort_flag()->load()) << "m1 is not involved";
-  scheduler_.AbortGlobalBaOf(m2, m1);
+  scheduler_.ReleaseGlobalBaHold();
+  scheduler_.HoldGlobalBaOf(m2, m1);
   EXPECT_TRUE(scheduler_.abort_flag()->load());
+  scheduler_.ReleaseGlobalBaHold();
   // Aborted: queued again; a fused-away map's request is forgotten.
   scheduler_.GlobalBaDone(m1, /*retry=*/true, {});
   scheduler_.OptimizationDone();
@@ -204,6 +206,92 @@ TEST_F(SchedulerTest, ADetectionAbortsOnlyARunningGlobalBaOfItsMaps) {
   EXPECT_EQ(scheduler_.Depths().global_ba_pending, 1u);
   ASSERT_EQ(scheduler_.TakeOptimizationJob(milliseconds(0), true)->global_ba, m1);
   EXPECT_FALSE(scheduler_.abort_flag()->load()) << "a new run starts unaborted";
+}
+
+TEST_F(SchedulerTest, NoGlobalBaOfAMapStartsWhileADetectionIsAppliedToIt) {
+  // A loop solves its pose graph with the map unlocked and half corrected: a global BA
+  // started then would optimize (and drop as outliers) the loop's own observations.
+  const MapId m1 = MapId::Make(0, 1), m2 = MapId::Make(0, 2);
+  scheduler_.HoldGlobalBaOf(m1, m1);
+  scheduler_.RequestGlobalBa(m1);
+  scheduler_.RequestGlobalBa(m2);
+  auto job = scheduler_.TakeOptimizationJob(milliseconds(0), true);
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->global_ba, m2) << "another map's global BA may run";
+  scheduler_.GlobalBaDone(m2, false, {});
+  scheduler_.OptimizationDone();
+  EXPECT_FALSE(scheduler_.TakeOptimizationJob(milliseconds(20), false)) << "m1 is held";
+  // A waiting optimization thread wakes when the hold ends.
+  auto waiting = std::async(std::launch::async, [&] { return scheduler_.TakeOptimizationJob(std::chrono::seconds(30), false); });
+  std::this_thread::sleep_for(milliseconds(20));
+  scheduler_.ReleaseGlobalBaHold();
+  ASSERT_EQ(waiting.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+  job = waiting.get();
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->global_ba, m1);
+}
+
+TEST(SchedulerSlots, AnIdleAgentsSlotGoesToANewAgentItsHandlerEndsAndItCanReturn) {
+  MapStack stack{MapOptions{}};
+  BackendScheduler::Limits limits = SmallLimits();
+  limits.max_agents = 1;
+  limits.release_idle_after = milliseconds(50);
+  BackendScheduler scheduler(limits);
+  auto admit = [&](AgentBatch b, bool* first) {
+    const AgentId agent = b.agent;
+    return scheduler.Admit(std::move(b), [&] { return std::make_unique<AgentRegistration>(agent, &stack, RegistrationOptions{}); },
+                           first);
+  };
+  auto drain = [&](AgentId agent) {
+    ASSERT_TRUE(scheduler.TakeBatch(agent, milliseconds(0)));
+    scheduler.BatchDone(agent);
+  };
+  bool first = false;
+  ASSERT_EQ(admit(Batch(1, 1), &first), Admission::kQueued);
+  EXPECT_TRUE(first);
+  drain(1);
+  EXPECT_EQ(admit(Batch(2), &first), Admission::kAgentRefused) << "agent 1 was heard from just now";
+  // Agent 1's handler waits for work when the slot goes: it wakes and is told to end.
+  auto waiting = std::async(std::launch::async, [&] {
+    bool released = false;
+    const bool got = scheduler.TakeBatch(1, std::chrono::seconds(30), &released).has_value();
+    return !got && released;
+  });
+  std::this_thread::sleep_for(milliseconds(80));
+  ASSERT_EQ(admit(Batch(2), &first), Admission::kQueued) << "agent 1 has been idle longer than 50 ms";
+  EXPECT_TRUE(first);
+  EXPECT_EQ(scheduler.slots_released(), 1);
+  ASSERT_EQ(waiting.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+  EXPECT_TRUE(waiting.get()) << "agent 1's handler stage ends";
+  EXPECT_EQ(scheduler.Agents(), (std::vector<AgentId>{1, 2})) << "a released agent is still known";
+
+  // A busy or non-empty queue is never released.
+  EXPECT_EQ(admit(Batch(1, 1), &first), Admission::kAgentRefused);
+  std::this_thread::sleep_for(milliseconds(80));
+  EXPECT_EQ(admit(Batch(1, 1), &first), Admission::kAgentRefused) << "agent 2's batch is still queued";
+  drain(2);
+  std::this_thread::sleep_for(milliseconds(80));
+  // Agent 1 returns: a new slot and a new handler; its segment budget (2) was kept.
+  ASSERT_EQ(admit(Batch(1, 2), &first), Admission::kQueued);
+  EXPECT_TRUE(first) << "its old handler ended, so a new one is needed";
+  EXPECT_EQ(scheduler.slots_released(), 2);
+  drain(1);
+  EXPECT_EQ(admit(Batch(1, 3), &first), Admission::kSegments) << "segments 1, 2 and 3 are more than 2";
+}
+
+TEST(SchedulerSlots, ZeroNeverReleasesASlot) {
+  MapStack stack{MapOptions{}};
+  BackendScheduler::Limits limits = SmallLimits();
+  limits.max_agents = 1;
+  BackendScheduler scheduler(limits);
+  bool first = false;
+  auto make = [&] { return std::make_unique<AgentRegistration>(1, &stack, RegistrationOptions{}); };
+  ASSERT_EQ(scheduler.Admit(Batch(1), make, &first), Admission::kQueued);
+  ASSERT_TRUE(scheduler.TakeBatch(1, milliseconds(0)));
+  scheduler.BatchDone(1);
+  std::this_thread::sleep_for(milliseconds(30));
+  EXPECT_EQ(scheduler.Admit(Batch(2), make, &first), Admission::kAgentRefused);
+  EXPECT_EQ(scheduler.slots_released(), 0);
 }
 
 TEST_F(SchedulerTest, StopWakesWaitingStagesUntilResume) {

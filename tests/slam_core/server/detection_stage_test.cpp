@@ -2,13 +2,16 @@
 // the second in a world frame that differs by a known Sim(3). A fusion detection between the
 // same view in both maps must leave one map in which each pair of keyframes of the same view
 // coincides and the scale is the first map's; a loop detection must close and be reported;
-// a detection of a keyframe the stack does not hold must change nothing.
+// a detection of a keyframe the stack does not hold must change nothing. The loop's pose
+// graph is solved with the map unlocked: keyframes and points added meanwhile must follow
+// their ancestor's correction.
 #include <gtest/gtest.h>
 
 #include <random>
 #include <vector>
 
 #include "slam_core/server/detection_stage.h"
+#include "slam_core/server/map_correction.h"
 #include "tests/slam_core/map/map_fixture.h"
 
 namespace ccm {
@@ -168,6 +171,63 @@ TEST(DetectionStage, AConsistentLoopClosesAndIsReported) {
   EXPECT_EQ(out.optimize, options.optimization.global_ba_after_loop ? map->id() : MapId());
   // Nothing had drifted, so closing the loop moves nothing.
   EXPECT_LT((map->map().keyframe(d.query)->camera_center() - before).norm(), 1e-3);
+}
+
+TEST(LoopCorrection, AKeyframeAddedWhileThePoseGraphIsSolvedFollowsItsAncestor) {
+  const Scene scene = MakeScene();
+  MapStack stack{MapOptions{}};
+  Map& map = BuildMap(&stack, 1, scene, Sim3())->map();
+  const KeyframeId first = KeyframeId::Make(1, 1), last = KeyframeId::Make(1, kKeyframes);
+  // The loop moves the first view by 10 cm and 2 deg; the last one holds the gauge (the
+  // keyframe added below takes the first view as its parent: all views see every point).
+  EssentialGraphCorrection corr;
+  for (const auto& kf : map.keyframes()) corr.before.emplace(kf->id(), kf->world_from_cam());
+  const Sim3 moved(1.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.035, Eigen::Vector3d::UnitY())),
+                   Eigen::Vector3d(0.1, 0.0, 0.0));
+  corr.corrected.emplace(first, moved * Sim3(map.keyframe(first)->world_from_cam()));
+  map.keyframe(first)->SetWorldFromCam(opt::RigidPose(corr.corrected.at(first)));  // as CloseLoop does
+  corr.loop_connections.emplace_back(first, last);
+  corr.fixed = last;
+  EssentialGraphProblem graph = BuildEssentialGraphProblem(map, corr);
+
+  // Meanwhile (map unlocked) a keyframe is registered next to the first one, with a new point.
+  const auto prev = map.keyframe(first);
+  const KeyframeId added = KeyframeId::Make(1, kKeyframes + 1);
+  const SE3 added_pose = prev->world_from_cam() * SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.2, 0.0, 0.0));
+  map.AddKeyframe(std::make_shared<KeyFrame>(added, prev->stamp_ns() + 50000000, prev->camera_ptr(),
+                                             prev->features_ptr(),
+                                             std::make_shared<ScalePyramid>(ScalePyramid::Make(8, 1.2)), added_pose));
+  for (int i = 0; i < kPoints; ++i) map.AddObservation(added, i, MapPointId::Make(1, i + 1));
+  map.UpdateConnections(added);
+  const auto kf = map.keyframe(added);
+  const auto parent = map.keyframe(kf->parent());
+  ASSERT_TRUE(parent) << "the registered keyframe hangs off the spanning tree";
+  const Eigen::Vector3d parent_centre = parent->camera_center();
+  const SE3 parent_from_added = parent->cam_from_world() * kf->world_from_cam();
+  const Eigen::Vector3d point_in_added(0.3, -0.2, 4.0);
+  const MapPointId new_point = MapPointId::Make(1, kPoints + 1);
+  map.AddMapPoint(std::make_shared<MapPoint>(new_point, kf->world_from_cam() * point_in_added, added,
+                                             scene.descriptors[0]));
+
+  const CorrectionResult result = SolveEssentialGraph(std::move(graph), opt::PoseGraphOptions{});
+  ASSERT_TRUE(result.ok);
+  EXPECT_EQ(result.nodes, kKeyframes) << "the graph was built before the keyframe came";
+  const ApplyCorrectionReport rep = ApplyCorrection(&map, result);
+  EXPECT_EQ(rep.keyframes, kKeyframes + 1);
+  EXPECT_EQ(rep.keyframes_added_meanwhile, 1);
+  // The keyframes of the graph end at their optimized poses; the loop moved the last one.
+  for (const auto& [id, s] : result.optimized) {
+    EXPECT_LT((map.keyframe(id)->camera_center() - s.translation()).norm(), 1e-9);
+  }
+  EXPECT_GT((map.keyframe(first)->camera_center() - corr.before.at(first).translation()).norm(), 0.02);
+  // The added keyframe keeps its pose relative to its parent (which the correction moved), and
+  // its point its position in it, both at the scale the correction gave the parent's region.
+  EXPECT_GT((parent->camera_center() - parent_centre).norm(), 0.01) << "parent " << parent->id().packed();
+  const SE3 after = parent->cam_from_world() * kf->world_from_cam();
+  const double scale = result.optimized.at(parent->id()).scale() / result.initial.at(parent->id()).scale();
+  EXPECT_LT((after.translation() - scale * parent_from_added.translation()).norm(), 1e-9);
+  EXPECT_LT(after.rotation().angularDistance(parent_from_added.rotation()), 1e-9);
+  EXPECT_LT((kf->cam_from_world() * map.map_point(new_point)->position() - scale * point_in_added).norm(), 1e-9);
 }
 
 TEST(DetectionStage, ADetectionOfAKeyframeNotInTheStackChangesNothing) {

@@ -77,6 +77,12 @@ inline VoStream RunVoStream(const std::shared_ptr<const sim::Simulation>& sim, i
   return out;
 }
 
+/// 10 s of hall3 agent 0: 200 frames, a few dozen keyframes (computed once per process).
+inline const VoStream& Hall3Stream() {
+  static const VoStream stream = RunVoStream(LoadSim("hall3"), 0, 0, 200);
+  return stream;
+}
+
 /// Ground-truth pose at a stamp (exact match; the simulator's stamps are shared).
 inline std::optional<SE3> GroundTruthAt(const Trajectory& gt, int64_t stamp_ns) {
   for (const auto& p : gt) {
