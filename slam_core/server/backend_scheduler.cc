@@ -29,11 +29,10 @@ BackendScheduler::Admission BackendScheduler::Admit(
     bool* first_of_agent) {
   const AgentId agent = batch.agent;
   *first_of_agent = false;
-  int released = 0;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     const bool is_new = !queues_.count(agent);
-    if (is_new && static_cast<int>(queues_.size()) >= limits_.max_agents) released = ReleaseIdleSlotsLocked();
+    if (is_new && static_cast<int>(queues_.size()) >= limits_.max_agents) ReleaseIdleSlotsLocked();
     if (is_new && static_cast<int>(queues_.size()) >= limits_.max_agents) return Admission::kAgentRefused;
     AgentQueue& q = queues_[agent];
     if (is_new) q.registration = make_registration();
@@ -70,26 +69,23 @@ BackendScheduler::Admission BackendScheduler::Admit(
     // A released agent whose handler stage has not noticed yet keeps that one.
     *first_of_agent = is_new && with_handler_.insert(agent).second;
   }
+  // Also wakes the handler stages of released agents, which then end.
   queue_cv_.notify_all();
-  if (released > 0) NotifyIdleChange();
   return Admission::kQueued;
 }
 
-int BackendScheduler::ReleaseIdleSlotsLocked() {
-  if (limits_.release_idle_after <= Clock::duration::zero()) return 0;
+void BackendScheduler::ReleaseIdleSlotsLocked() {
+  if (limits_.release_idle_after <= Clock::duration::zero()) return;
   const auto now = Clock::now();
-  int released = 0;
   for (auto it = queues_.begin(); it != queues_.end();) {
     const AgentQueue& q = it->second;
     if (q.batches.empty() && !q.busy && now - q.last_admitted >= limits_.release_idle_after) {
       it = queues_.erase(it);
-      ++released;
+      ++slots_released_;
     } else {
       ++it;
     }
   }
-  slots_released_ += released;
-  return released;
 }
 
 std::optional<BackendScheduler::AgentWork> BackendScheduler::TakeBatch(AgentId agent,

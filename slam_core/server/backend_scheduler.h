@@ -123,8 +123,8 @@ class BackendScheduler {
     Clock::time_point last_admitted;
     std::unique_ptr<AgentRegistration> registration;
   };
-  /// Frees the slots idle for release_idle_after (queue lock held); how many.
-  int ReleaseIdleSlotsLocked();
+  /// Frees the slots idle for release_idle_after (queue lock held).
+  void ReleaseIdleSlotsLocked();
   /// Stages call it holding none of their mutexes.
   void NotifyIdleChange();
 
