@@ -5,8 +5,7 @@
 namespace ccm {
 
 EssentialGraphProblem BuildEssentialGraphProblem(const Map& map, const EssentialGraphCorrection& c) {
-  EssentialGraphProblem out;
-  opt::PoseGraphProblem& problem = out.problem;
+  EssentialGraphProblem problem;
   const EssentialGraph graph = map.BuildEssentialGraph();
   std::unordered_map<KeyframeId, int> index;
   std::vector<Sim3> before;
@@ -22,7 +21,6 @@ EssentialGraphProblem BuildEssentialGraphProblem(const Map& map, const Essential
     node.fixed = id == c.fixed;
     index.emplace(id, static_cast<int>(problem.nodes.size()));
     problem.nodes.push_back(node);
-    out.ids.push_back(id);
     before.push_back(Sim3(pose_before));
   }
   std::set<std::pair<KeyframeId, KeyframeId>> loop_set;
@@ -52,13 +50,12 @@ EssentialGraphProblem BuildEssentialGraphProblem(const Map& map, const Essential
                                                                       : opt::Sim3EdgeKind::kCovisibility);
   }
   for (const auto& [a, b] : loop_set) add_edge(a, b, true, opt::Sim3EdgeKind::kLoop);
-  return out;
+  return problem;
 }
 
-CorrectionResult SolveEssentialGraph(EssentialGraphProblem graph, const opt::PoseGraphOptions& options) {
+CorrectionResult SolveEssentialGraph(EssentialGraphProblem problem, const opt::PoseGraphOptions& options) {
   CorrectionResult out;
-  opt::PoseGraphProblem& problem = graph.problem;
-  for (size_t n = 0; n < problem.nodes.size(); ++n) out.initial.emplace(graph.ids[n], problem.nodes[n].world_from_cam);
+  for (const auto& n : problem.nodes) out.initial.emplace(KeyframeId(n.id), n.world_from_cam);
   out.nodes = static_cast<int>(problem.nodes.size());
   out.edges = static_cast<int>(problem.edges.size());
   if (problem.edges.empty()) return out;
@@ -67,13 +64,8 @@ CorrectionResult SolveEssentialGraph(EssentialGraphProblem graph, const opt::Pos
   out.iterations = s.iterations;
   out.seconds = s.solve_time_s;
   if (!out.ok) return out;
-  for (size_t n = 0; n < problem.nodes.size(); ++n) out.optimized.emplace(graph.ids[n], problem.nodes[n].world_from_cam);
+  for (const auto& n : problem.nodes) out.optimized.emplace(KeyframeId(n.id), n.world_from_cam);
   return out;
-}
-
-CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorrection& c,
-                                        const opt::PoseGraphOptions& options) {
-  return SolveEssentialGraph(BuildEssentialGraphProblem(map, c), options);
 }
 
 ApplyCorrectionReport ApplyCorrection(Map* map, const CorrectionResult& r) {

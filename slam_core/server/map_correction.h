@@ -27,11 +27,9 @@ struct EssentialGraphCorrection {
   KeyframeId fixed;                                ///< gauge (the loop candidate)
 };
 
-/// The pose graph of a map, copied out of it: solvable with no lock held.
-struct EssentialGraphProblem {
-  opt::PoseGraphProblem problem;
-  std::vector<KeyframeId> ids;  ///< keyframe of each node
-};
+/// The pose graph of a map, copied out of it (node ids are packed KeyframeIds): solvable
+/// with no lock held.
+using EssentialGraphProblem = opt::PoseGraphProblem;
 
 struct CorrectionResult {
   bool ok = false;
@@ -46,10 +44,6 @@ struct CorrectionResult {
 
 EssentialGraphProblem BuildEssentialGraphProblem(const Map& map, const EssentialGraphCorrection& correction);
 CorrectionResult SolveEssentialGraph(EssentialGraphProblem graph, const opt::PoseGraphOptions& options);
-
-/// Build + solve in one call (the caller holds the map for both).
-CorrectionResult OptimizeEssentialGraph(const Map& map, const EssentialGraphCorrection& correction,
-                                        const opt::PoseGraphOptions& options);
 
 struct ApplyCorrectionReport {
   int keyframes = 0;
