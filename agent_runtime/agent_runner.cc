@@ -17,6 +17,7 @@
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "agent_runtime/agent_comm.h"
 #include "agent_runtime/cpu_usage.h"
+#include "runtime_common/process_memory.h"
 #include "slam_core/common/install_paths.h"
 #include "slam_core/vo/agent_vo.h"
 #ifdef CCM_AGENT_WITH_SIM
@@ -249,7 +250,7 @@ nlohmann::json Footprint(const Flight& f, double mapping_cpu_s, const AgentComm*
                                       {"input", f.input_cpu_s * per_frame},
                                       {"other", other_s * per_frame},
                                       {"total", process_s * per_frame}}},
-                                    {"peak_rss_mb", PeakRssMb()}};
+                                    {"peak_rss_mb", rt::PeakRssMb()}};
   const nlohmann::json& ms = footprint["cpu_ms_per_frame"];
   spdlog::info("CPU ms/frame: tracking {:.1f}, mapping {:.1f}, comm {:.1f}, input {:.1f}, other {:.1f}, total {:.1f}; "
                "peak RSS {:.0f} MB",

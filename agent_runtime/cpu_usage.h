@@ -1,6 +1,7 @@
 // CPU time and memory of the agent process, for the footprint in the agent's summary
 // (docs/deployment.md "Footprint"): per-thread CPU from CLOCK_THREAD_CPUTIME_ID (the calling
-// thread only), process CPU and peak RSS from getrusage. Linux/POSIX; cheap (one syscall).
+// thread only), process CPU from getrusage (peak RSS: runtime_common/process_memory.h).
+// Linux/POSIX; cheap (one syscall).
 #pragma once
 
 #include <sys/resource.h>
@@ -22,13 +23,6 @@ inline double ProcessCpuSeconds() {
   getrusage(RUSAGE_SELF, &u);
   return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-/// Peak resident set size of the process [MB].
-inline double PeakRssMb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_maxrss) / 1024.0;  // ru_maxrss is in kB on Linux
 }
 
 }  // namespace ccm::agent

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "runtime_common/process_memory.h"
 #include "server_runtime/run_report.h"
 
 namespace ccm::server {
@@ -59,6 +60,7 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                                            {"queue_dropped", t.queue_dropped}};
   }
   const nlohmann::json j = {{"elapsed_s", comm.elapsed_s},
+                            {"peak_rss_mb", rt::PeakRssMb()},
                             {"agents", agents},
                             {"refused_agents", comm.refused_agents},
                             {"released_agents", comm.released_agents},

@@ -13,15 +13,11 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/system/process_json.h"
 #include "tests/transport/subprocess.h"
 
 namespace ccm {
 namespace {
-
-nlohmann::json LastJsonLine(const std::string& output) {
-  const auto start = output.rfind("\n{");
-  return nlohmann::json::parse(output.substr(start == std::string::npos ? 0 : start + 1), nullptr, false);
-}
 
 struct TeamRun {
   nlohmann::json server;
@@ -100,8 +96,8 @@ TeamRun RunTeam(const std::string& name, int domain, double drop, int delay_ms) 
                 results[i].output.substr(results[i].output.size() > 4000 ? results[i].output.size() - 4000 : 0);
     EXPECT_EQ(results[i].exit_code, 0) << name << " process " << i;
   }
-  run.server = LastJsonLine(results[0].output);
-  for (int a = 1; a <= 2; ++a) run.agents.push_back(LastJsonLine(results[a].output));
+  run.server = testing::LastJsonLine(results[0].output);
+  for (int a = 1; a <= 2; ++a) run.agents.push_back(testing::LastJsonLine(results[a].output));
   Evaluate(dir, "server/agent#_keyframes.tum", "server", &run, &run.server_ate_m, &run.joint_ate_m);
   Evaluate(dir, "own#.tum", "own", &run, &run.own_ate_m, nullptr);
   return run;

@@ -9,15 +9,11 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/system/process_json.h"
 #include "tests/transport/subprocess.h"
 
 namespace ccm {
 namespace {
-
-nlohmann::json LastJson(const std::string& output) {
-  const auto start = output.rfind("\n{");
-  return nlohmann::json::parse(output.substr(start == std::string::npos ? 0 : start + 1), nullptr, false);
-}
 
 nlohmann::json ReadJson(const std::string& path) {
   std::ifstream in(path);
@@ -51,8 +47,8 @@ Life RunLife(const std::string& dir, const std::string& name, int domain, const 
                  ")\n" + results[i].output.substr(results[i].output.size() > 3000 ? results[i].output.size() - 3000 : 0);
     EXPECT_EQ(results[i].exit_code, 0) << name << " process " << i;
   }
-  life.server = LastJson(results[0].output);
-  life.agent = LastJson(results[1].output);
+  life.server = testing::LastJsonLine(results[0].output);
+  life.agent = testing::LastJsonLine(results[1].output);
   life.summary = ReadJson(dir + "/" + name + "/summary.json");
   return life;
 }
