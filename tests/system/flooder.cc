@@ -4,7 +4,9 @@
 // their points, each keyframe in a fresh map segment when --fresh-segments is set (every
 // new (agent, segment) would be a new server map without the per-agent segment budget).
 // Writes that the reliable writer refused (history full) are counted, not retried: a
-// flooder does not care. Prints one JSON object when --duration is over.
+// flooder does not care. Prints one JSON object when --duration is over, with the process's
+// memory at 60 % of the flood and at the end: the writers' DDS histories are bounded
+// by the QoS profile, so a flood (or a long flight) must not grow it.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -13,6 +15,7 @@
 
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
+#include "runtime_common/process_memory.h"
 #include "runtime_common/synthetic_msgs.h"
 #include "runtime_common/topics.h"
 #include "runtime_common/typed_endpoints.h"
@@ -88,6 +91,8 @@ int main(int argc, char** argv) {
   const auto end = start + std::chrono::duration<double>(duration_s);
   int64_t written = 0, refused = 0;
   auto next_status = start;
+  const auto midway = start + std::chrono::duration<double>(duration_s * 0.6);
+  double rss_midway_mb = 0.0;
   uint64_t index = 0;
   for (auto next = start; std::chrono::steady_clock::now() < end; next += std::chrono::duration_cast<
                                                                        std::chrono::steady_clock::duration>(period)) {
@@ -108,12 +113,18 @@ int main(int argc, char** argv) {
     (kf_writer->Write(kf) ? written : refused) += 1;
     (point_writer->Write(points) ? written : refused) += 1;
     ++index;
+    // Memory at 60 % of the flood (past 600 keyframes at 35/s): the writers' histories
+    // (600 samples in the shipped profiles) are full, so it must not grow from here on.
+    if (std::chrono::steady_clock::now() >= midway && rss_midway_mb == 0.0) rss_midway_mb = rt::CurrentRssMb();
   }
   out["agent"] = id;
   out["keyframes"] = index;
   out["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out["writes"] = written;
   out["writes_refused"] = refused;
+  out["peak_rss_mb"] = rt::PeakRssMb();
+  out["rss_midway_mb"] = rss_midway_mb;
+  out["rss_at_end_mb"] = rt::CurrentRssMb();
   std::cout << out.dump() << std::endl;
   return 0;
 }
