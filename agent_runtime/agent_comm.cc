@@ -61,6 +61,18 @@ std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::Sess
       s, kTopicServerToAgent, kProfileServerReader, {16, OverflowPolicy::kDropOldest}, error,
       partition);
   if (!c->server_reader_) return nullptr;
+  const double cap = c->keyframe_writer_->CapBytesPerSecond();
+  c->bytes_per_cycle_ = NewDataBytesPerCycle(config.max_bytes_per_cycle, cap, config.publish_rate_hz);
+  if (c->bytes_per_cycle_ < config.max_bytes_per_cycle) {
+    spdlog::info("new data per publish cycle: {} kB (max_bytes_per_cycle {} kB is more than {:.0f} % of the QoS "
+                 "profile's {:.2f} MB/s cap at {} Hz)",
+                 c->bytes_per_cycle_ / 1000, config.max_bytes_per_cycle / 1000, 100 * kShareOfCap, cap / 1e6,
+                 config.publish_rate_hz);
+  }
+  {
+    std::lock_guard<std::mutex> lock(c->stats_mutex_);
+    c->stats_.new_data_bytes_per_cycle = c->bytes_per_cycle_;
+  }
   return c;
 }
 
@@ -187,7 +199,7 @@ void AgentComm::PackChanges() {
 void AgentComm::WriteBacklog() {
   // New data first (keyframes before their points), up to the byte budget; updates are
   // tiny and superseded by newer ones, so only the latest of each id goes, every cycle.
-  size_t budget = static_cast<size_t>(config_.max_bytes_per_cycle);
+  size_t budget = static_cast<size_t>(bytes_per_cycle_);
   uint64_t kfs = 0, resent = 0, mps = 0, failures = 0;
   while (!kf_backlog_.empty() && (budget >= WireBytes(kf_backlog_.front()) || kfs + resent == 0)) {
     const msg::KeyframeFull& m = kf_backlog_.front();

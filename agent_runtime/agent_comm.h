@@ -50,6 +50,7 @@ struct AgentCommStats {
   std::uint64_t packs = 0;
   AckTracker::Latency ack_latency;     ///< first send -> ack (filled by Stats())
   std::uint64_t kfs_resent_gap = 0;    ///< of kfs_resent, by the gap rule (filled by Stats())
+  int new_data_bytes_per_cycle = 0;    ///< the byte budget in use (NewDataBytesPerCycle)
 };
 
 class AgentComm {
@@ -96,6 +97,7 @@ class AgentComm {
   std::unique_ptr<rt::TypedReader<msg::ServerToAgentPubSubType>> server_reader_;
 
   // Comm-thread state.
+  int bytes_per_cycle_ = 0;  ///< new data per cycle: max_bytes_per_cycle within the writers' cap
   ChangePacker packer_;
   conv::CameraCache cameras_;
   KeyframeId reference_kf_;

@@ -1,5 +1,7 @@
 #include "agent_runtime/agent_config.h"
 
+#include <algorithm>
+
 #include "runtime_common/yaml_config.h"
 
 namespace ccm::agent {
@@ -9,6 +11,12 @@ VoOptions AgentConfig::EffectiveVo() const {
   v.bound.max_keyframes = max_keyframes;
   v.bound.max_unacked_buffer = buffer_keyframes;
   return v;
+}
+
+int NewDataBytesPerCycle(int max_bytes_per_cycle, double cap_bytes_per_s, double publish_rate_hz) {
+  if (!(cap_bytes_per_s > 0.0) || !(publish_rate_hz > 0.0)) return max_bytes_per_cycle;
+  const double share = kShareOfCap * cap_bytes_per_s / publish_rate_hz;
+  return std::max(1000, std::min(max_bytes_per_cycle, static_cast<int>(share)));
 }
 
 std::string AgentConfig::Validate() const {

@@ -46,6 +46,14 @@ struct AgentConfig {
   std::string Validate() const;
 };
 
+/// New data written per publish cycle: `max_bytes_per_cycle`, but never more than
+/// kShareOfCap of what a writer capped at `cap_bytes_per_s` (0: uncapped) sends in one
+/// cycle. Fast DDS 2.9.1's throughput controller starves a writer that is offered more than
+/// its cap instead of sending at the cap (docs/qos-tuning.md), and repairs of lost
+/// fragments take their share of the cap too. At least 1000 bytes.
+inline constexpr double kShareOfCap = 0.75;
+int NewDataBytesPerCycle(int max_bytes_per_cycle, double cap_bytes_per_s, double publish_rate_hz);
+
 /// Loads `path` over the defaults in *config. False with a message naming file and key on
 /// a missing file, a syntax error, an unknown key, a wrong type or an invalid value.
 bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* error);

@@ -231,7 +231,8 @@ nlohmann::json LinkSummary(const AgentComm& comm) {
           {"server_msgs_rejected", c.server_msgs_rejected},
           {"server_keyframes_received", c.server_keyframes_received},
           {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
-          {"pack_ms_max", c.pack_ms_max}};
+          {"pack_ms_max", c.pack_ms_max},
+          {"new_data_bytes_per_cycle", c.new_data_bytes_per_cycle}};
 }
 
 // CPU per frame by thread and peak RSS (issue 29's budget). "other" is the rest of the

@@ -17,6 +17,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <limits>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -123,6 +124,16 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
   int matched() const { return match_.matched(); }
   bool WaitForMatch(int count, std::chrono::milliseconds timeout) { return match_.WaitFor(count, timeout); }
   const TopicCounters& counters() const { return counters_; }
+
+  /// The bandwidth cap of this writer's profile (`<throughputController>`) in bytes per
+  /// second; 0 when it has none. Fast DDS 2.9 shares one such controller among a
+  /// participant's capped writers (docs/qos-tuning.md).
+  double CapBytesPerSecond() const {
+    const auto& c = writer_->get_qos().throughput_controller();
+    const bool capped = c.periodMillisecs > 0 && c.bytesPerPeriod > 0 &&
+                        c.bytesPerPeriod != std::numeric_limits<decltype(c.bytesPerPeriod)>::max();
+    return capped ? 1000.0 * static_cast<double>(c.bytesPerPeriod) / static_cast<double>(c.periodMillisecs) : 0.0;
+  }
 
   void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
                               const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {

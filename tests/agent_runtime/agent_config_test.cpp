@@ -13,6 +13,15 @@ std::string Write(const std::string& name, const std::string& text) {
   return path;
 }
 
+TEST(AgentConfig, NewDataPerCycleStaysWithinTheWritersCap) {
+  // wifi.xml: 50000 B per 50 ms = 1 MB/s; at 4 Hz a cycle may offer 0.75 MB/s / 4.
+  EXPECT_EQ(NewDataBytesPerCycle(600000, 1.0e6, 4.0), 187500);
+  EXPECT_LE(NewDataBytesPerCycle(600000, 1.0e6, 4.0) * 4.0, 1.0e6) << "never more than the cap per second";
+  EXPECT_EQ(NewDataBytesPerCycle(100000, 1.0e6, 4.0), 100000) << "a smaller configured budget stays";
+  EXPECT_EQ(NewDataBytesPerCycle(600000, 0.0, 4.0), 600000) << "uncapped writer";
+  EXPECT_EQ(NewDataBytesPerCycle(600000, 2000.0, 4.0), 1000) << "at least 1000 bytes";
+}
+
 TEST(AgentConfig, LoadsValidFile) {
   AgentConfig c;
   std::string error;
