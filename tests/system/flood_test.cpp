@@ -7,8 +7,8 @@
 // server's memory must stay bounded, and so must the flooder's own (its writers' DDS
 // histories, bounded as every agent's are). How much later the honest agent's keyframes are
 // acknowledged (its registration lag, first send -> ack) is printed against the run
-// without the flooder: a measurement (docs/deployment.md "Flood"), not a timing assert,
-// beyond a gross bound that a starved agent would break.
+// without the flooder: a measurement (docs/protocol.md "A flooding agent starves nobody"),
+// not a timing assert beyond a gross bound that a starved agent would break.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -28,8 +28,8 @@ constexpr double kFloodSeconds = 35.0;
 constexpr int kFlooderId = 9;
 constexpr int kSegmentBudget = 64;        // ServerOptions::max_segments_per_agent (default)
 constexpr double kServerRssBoundMb = 1024.0;
-constexpr double kStarvedAckSeconds = 5.0;
-constexpr double kWriterGrowthBoundMb = 8.0;  // p95 first send -> ack beyond this: starved
+constexpr double kStarvedAckSeconds = 5.0;    // p95 first send -> ack beyond this: starved
+constexpr double kWriterGrowthBoundMb = 8.0;  // the flooder's memory over its last 40 %
 
 // wifi.xml without the new-data bandwidth cap: a hostile agent does not cap itself (and
 // Fast DDS 2.9's throughput controller starves a writer offered more than its cap,

@@ -87,15 +87,15 @@ int main(int argc, char** argv) {
     point_writer->WaitForMatch(1, std::chrono::seconds(10));
   }
   const auto start = std::chrono::steady_clock::now();
-  const auto period = std::chrono::duration<double>(1.0 / rate);
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / rate));
   const auto end = start + std::chrono::duration<double>(duration_s);
   int64_t written = 0, refused = 0;
   auto next_status = start;
   const auto midway = start + std::chrono::duration<double>(duration_s * 0.6);
   double rss_midway_mb = 0.0;
   uint64_t index = 0;
-  for (auto next = start; std::chrono::steady_clock::now() < end; next += std::chrono::duration_cast<
-                                                                       std::chrono::steady_clock::duration>(period)) {
+  for (auto next = start; std::chrono::steady_clock::now() < end; next += period) {
     std::this_thread::sleep_until(next);
     const auto now = std::chrono::steady_clock::now();
     if (now >= next_status) {
