@@ -69,10 +69,6 @@ std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::Sess
                  c->bytes_per_cycle_ / 1000, config.max_bytes_per_cycle / 1000, 100 * kShareOfCap, cap / 1e6,
                  config.publish_rate_hz);
   }
-  {
-    std::lock_guard<std::mutex> lock(c->stats_mutex_);
-    c->stats_.new_data_bytes_per_cycle = c->bytes_per_cycle_;
-  }
   return c;
 }
 
@@ -103,6 +99,7 @@ AgentCommStats AgentComm::Stats() const {
   }
   s.ack_latency = acks_->AckLatency();  // the tracker's own (leaf) lock, not under ours
   s.kfs_resent_gap = acks_->resent_gap_count();
+  s.new_data_bytes_per_cycle = bytes_per_cycle_;  // set once in Create
   return s;
 }
 

@@ -50,7 +50,7 @@ struct AgentCommStats {
   std::uint64_t packs = 0;
   AckTracker::Latency ack_latency;     ///< first send -> ack (filled by Stats())
   std::uint64_t kfs_resent_gap = 0;    ///< of kfs_resent, by the gap rule (filled by Stats())
-  int new_data_bytes_per_cycle = 0;    ///< the byte budget in use (NewDataBytesPerCycle)
+  int new_data_bytes_per_cycle = 0;    ///< the byte budget in use (NewDataBytesPerCycle; filled by Stats())
 };
 
 class AgentComm {
