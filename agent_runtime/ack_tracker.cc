@@ -6,25 +6,56 @@ namespace ccm::agent {
 
 void AckTracker::OnSent(KeyframeId id, Clock::time_point now) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (acked_.count(id)) return;  // a resend of something the server already has
+  if (acked_.count(id) || persisted_.count(id)) return;  // a resend of something the server already has
   const auto [it, fresh] = entries_.try_emplace(id);
   if (fresh) it->second.first_sent = now;
   it->second.last_sent = now;
 }
 
-std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now) {
+std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked, Clock::time_point now,
+                                            const AckStamp& stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (stamp.epoch < epoch_) {  // from a server start before the newest one seen
+    stale_run_ = stamp.epoch == stale_run_epoch_ ? stale_run_ + 1 : 1;
+    stale_run_epoch_ = stamp.epoch;
+    ++stale_messages_;
+    if (stale_run_ < kStaleRunToAdopt) return {};
+  }
+  if (stamp.epoch == epoch_) stale_run_ = 0;
+  std::vector<KeyframeId> resend;
+  if (stamp.epoch != epoch_) {
+    stale_run_ = 0;
+    // A server start: what the previous one processed but had not saved is gone with it.
+    // Resend at once (the new server has nothing of it) and wait for this epoch's acks.
+    if (epoch_ != 0) {
+      ++server_restarts_;
+      for (auto& [id, entry] : entries_) {
+        if (!entry.acked || entry.persisted) continue;
+        entry.acked = false;
+        entry.timeouts = 0;
+        entry.last_sent = now;
+        acked_.erase(id);
+        --acked_count_;
+        ++resent_count_;
+        ++resent_after_restart_;
+        resend.push_back(id);
+      }
+    }
+    epoch_ = stamp.epoch;
+    persisted_seq_ = 0;
+  }
   for (KeyframeId id : acked) {
     auto it = entries_.find(id);
     if (it == entries_.end() || it->second.acked) continue;  // unknown or duplicate ack
     it->second.acked = true;
+    it->second.acked_seq = stamp.ack_seq;
     ++acked_count_;
     acked_.insert(id);
     latencies_ms_.push_back(std::chrono::duration<float, std::milli>(now - it->second.first_sent).count());
   }
   while (acked_.size() > kRememberedAcks) acked_.erase(acked_.begin());
   while (latencies_ms_.size() > kRememberedAcks) latencies_ms_.pop_front();
-  std::vector<KeyframeId> resend;
+  persisted_seq_ = std::max(persisted_seq_, stamp.persisted_seq);
   // Walk in id order: an unacked entry directly followed by an acked one was skipped by
   // the server (lost or not yet processed): resend it unless it was sent very recently.
   for (auto it = entries_.begin(); it != entries_.end(); ++it) {
@@ -37,10 +68,32 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
       resend.push_back(it->first);
     }
   }
-  // An acknowledged prefix is never needed again for resends (it cannot be the successor of
-  // an unacknowledged KF); IsAcked answers from acked_.
-  while (!entries_.empty() && entries_.begin()->second.acked) entries_.erase(entries_.begin());
+  MarkPersistedLocked();
+  std::sort(resend.begin(), resend.end());
+  // A keyframe resent for the restart may also be a gap now (a zero holdoff): once.
+  const auto dup = std::unique(resend.begin(), resend.end());
+  resent_count_ -= static_cast<std::uint64_t>(resend.end() - dup);
+  resent_gap_count_ -= static_cast<std::uint64_t>(resend.end() - dup);
+  resend.erase(dup, resend.end());
   return resend;
+}
+
+void AckTracker::MarkPersistedLocked() {
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    Entry& e = it->second;
+    if (!e.acked || e.persisted || e.acked_seq > persisted_seq_) {
+      ++it;
+      continue;
+    }
+    e.persisted = true;
+    persisted_.insert(it->first);
+    ++persisted_count_;
+    // Kept while an unacknowledged entry precedes it: the gap rule needs its successor.
+    it = it == entries_.begin() ? entries_.erase(it) : std::next(it);
+  }
+  // A persisted prefix is never needed again; IsAcked/IsPersisted answer from the sets.
+  while (!entries_.empty() && entries_.begin()->second.persisted) entries_.erase(entries_.begin());
+  while (persisted_.size() > kRememberedAcks) persisted_.erase(persisted_.begin());
 }
 
 std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, Clock::time_point now,
@@ -61,6 +114,11 @@ std::vector<KeyframeId> AckTracker::Overdue(std::chrono::milliseconds timeout, C
 bool AckTracker::IsAcked(KeyframeId id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   return acked_.count(id) > 0;
+}
+
+bool AckTracker::IsPersisted(KeyframeId id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return persisted_.count(id) > 0;
 }
 
 void AckTracker::Forget(KeyframeId id) {
@@ -98,6 +156,33 @@ std::uint64_t AckTracker::resent_gap_count() const {
 std::uint64_t AckTracker::resent_count() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return resent_count_;
+}
+
+std::size_t AckTracker::unpersisted_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::size_t n = 0;
+  for (const auto& [id, entry] : entries_) n += entry.acked && !entry.persisted ? 1 : 0;
+  return n;
+}
+
+std::uint64_t AckTracker::persisted_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return persisted_count_;
+}
+
+std::uint64_t AckTracker::server_restarts() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return server_restarts_;
+}
+
+std::uint64_t AckTracker::resent_after_restart_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return resent_after_restart_;
+}
+
+std::uint64_t AckTracker::stale_messages() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stale_messages_;
 }
 
 std::size_t AckTracker::unacked_count() const {

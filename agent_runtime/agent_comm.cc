@@ -100,6 +100,11 @@ AgentCommStats AgentComm::Stats() const {
   s.ack_latency = acks_->AckLatency();  // the tracker's own (leaf) lock, not under ours
   s.kfs_resent_gap = acks_->resent_gap_count();
   s.new_data_bytes_per_cycle = bytes_per_cycle_;  // set once in Create
+  s.kfs_persisted = acks_->persisted_count();
+  s.kfs_unpersisted = acks_->unpersisted_count();
+  s.server_restarts = acks_->server_restarts();
+  s.kfs_resent_after_restart = acks_->resent_after_restart_count();
+  s.server_msgs_stale = acks_->stale_messages();
   return s;
 }
 
@@ -291,7 +296,14 @@ void AgentComm::HandleServerMessage(const msg::ServerToAgent& message) {
     ++stats_.server_msgs_rejected;
     return;
   }
-  Resend(acks_->OnAcked(m->acked_kfs, Clock::now()));
+  const conv::ServerAckStamp& st = m->ack_stamp;
+  const auto resend = acks_->OnAcked(m->acked_kfs, Clock::now(), {st.epoch, st.ack_seq, st.persisted_seq});
+  if (const auto restarts = acks_->server_restarts(); restarts > server_restarts_logged_) {
+    server_restarts_logged_ = restarts;
+    spdlog::warn("agent {}: the server restarted (epoch {}); resending the {} keyframe(s) it had processed but "
+                 "not saved", config_.agent_id, st.epoch, resend.size());
+  }
+  Resend(resend);
   size_t received = 0;
   if (m->data && config_.map_sharing) {
     received = m->data->keyframes.size();
@@ -311,6 +323,14 @@ void AgentComm::PublishStatus() {
   status.map_segment_id(segment_.packed());
   const AgentCommStats s = Stats();
   const AgentVoStats vs = vo_->stats();
+  if (vs.trim.removed_unpersisted > unpersisted_evictions_logged_) {
+    spdlog::warn("agent {}: the local map bound (N + B) dropped {} keyframe(s) the server processed but has not "
+                 "saved yet ({} in all): a server crash before its next save would lose them; size B with the "
+                 "server's autosave_s (docs/deployment.md)",
+                 config_.agent_id, vs.trim.removed_unpersisted - unpersisted_evictions_logged_,
+                 vs.trim.removed_unpersisted);
+    unpersisted_evictions_logged_ = vs.trim.removed_unpersisted;
+  }
   status.kfs_created(static_cast<std::uint32_t>(vs.keyframes_created));
   status.kfs_sent(static_cast<std::uint32_t>(s.kfs_sent));
   status.kfs_acked(static_cast<std::uint32_t>(s.kfs_acked));

@@ -51,6 +51,12 @@ struct AgentCommStats {
   AckTracker::Latency ack_latency;     ///< first send -> ack (filled by Stats())
   std::uint64_t kfs_resent_gap = 0;    ///< of kfs_resent, by the gap rule (filled by Stats())
   int new_data_bytes_per_cycle = 0;    ///< the byte budget in use (NewDataBytesPerCycle; filled by Stats())
+  // Durable acks (AckTracker; filled by Stats()).
+  std::uint64_t kfs_persisted = 0;     ///< acknowledged and in the server's map file
+  std::uint64_t kfs_unpersisted = 0;   ///< acknowledged, not saved yet (kept for a restarted server)
+  std::uint64_t server_restarts = 0;   ///< newer server epochs seen after the first
+  std::uint64_t kfs_resent_after_restart = 0;
+  std::uint64_t server_msgs_stale = 0; ///< of an older epoch than the newest seen: ignored
 };
 
 class AgentComm {
@@ -115,6 +121,8 @@ class AgentComm {
   std::vector<msg::MapPointUpdate> mp_updates_;
   std::vector<std::string> rejection_kinds_logged_;
   std::set<uint64_t> resend_ids_;  ///< packed again for a resend, not written yet
+  std::uint64_t server_restarts_logged_ = 0;
+  std::int64_t unpersisted_evictions_logged_ = 0;
   bool server_matched_ = false;    ///< keyframe writer and server reader both matched at the last check
   std::chrono::steady_clock::time_point server_matched_since_;  ///< when that began
 

@@ -113,9 +113,19 @@ std::optional<AgentStatusData> FromMsg(const msg::AgentStatus& m, std::string* e
 
 // ---- Server -> agent.
 
+/// Where a server message stands in the server's life (idl ServerToAgent, docs/protocol.md
+/// "Epochs and persisted acks"): the server's start, this ack message's number in it (0: no
+/// acks), and the newest number whose acks are all in the saved map file.
+struct ServerAckStamp {
+  uint64_t epoch = 1;
+  uint64_t ack_seq = 0;
+  uint64_t persisted_seq = 0;
+};
+
 /// What one ServerToAgent carries, validated.
 struct ServerMessage {
   int64_t stamp_ns = 0;
+  ServerAckStamp ack_stamp;
   std::vector<KeyframeId> acked_kfs;
   std::vector<MapPointId> acked_mps;
   /// Absent when the message has neither keyframes nor points (acks only).
@@ -127,8 +137,9 @@ struct ServerMessage {
 /// kMaxObservations, and observations of keyframes left out or of keypoint indices that do
 /// not fit the wire are all left out; the rest is sent. `data` may be null (acks only).
 msg::ServerToAgent ToMsg(AgentId agent, int64_t stamp_ns, const std::vector<KeyframeId>& acked_kfs,
-                         const std::vector<MapPointId>& acked_mps, const ServerMapData* data);
-/// Rejects messages for another agent, acks of ids that are not `expected_agent`'s, and any
+                         const std::vector<MapPointId>& acked_mps, const ServerMapData* data,
+                         const ServerAckStamp& ack_stamp = {});
+/// Rejects messages for another agent, epoch 0, acks of ids that are not `expected_agent`'s, and any
 /// malformed keyframe or point (the whole message: it is never acked and the next one follows).
 std::optional<ServerMessage> FromMsg(const msg::ServerToAgent& m, AgentId expected_agent, CameraCache* cameras,
                                      std::string* error);

@@ -127,11 +127,15 @@ std::string MapDataFromMsg(const msg::ServerToAgent& m, CameraCache* cameras, Se
 }  // namespace
 
 msg::ServerToAgent ToMsg(AgentId agent, int64_t stamp_ns, const std::vector<KeyframeId>& acked_kfs,
-                         const std::vector<MapPointId>& acked_mps, const ServerMapData* data) {
+                         const std::vector<MapPointId>& acked_mps, const ServerMapData* data,
+                         const ServerAckStamp& ack_stamp) {
   msg::ServerToAgent m;
   m.protocol_version(msg::kProtocolVersion);
   m.agent_id(agent);
   m.stamp_ns(stamp_ns);
+  m.server_epoch(ack_stamp.epoch);
+  m.ack_seq(ack_stamp.ack_seq);
+  m.persisted_seq(ack_stamp.persisted_seq);
   for (size_t i = 0; i < acked_kfs.size() && i < msg::kMaxAcks; ++i) m.acked_kf_ids().push_back(acked_kfs[i].packed());
   for (size_t i = 0; i < acked_mps.size() && i < msg::kMaxAcks; ++i) m.acked_mp_ids().push_back(acked_mps[i].packed());
   if (data == nullptr) return m;
@@ -159,8 +163,10 @@ std::optional<ServerMessage> FromMsg(const msg::ServerToAgent& m, AgentId expect
   if (m.agent_id() != expected_agent) {
     return reject("addressed to agent " + std::to_string(m.agent_id()) + ", not " + std::to_string(expected_agent));
   }
+  if (m.server_epoch() == 0) return reject("server epoch 0");
   ServerMessage out;
   out.stamp_ns = m.stamp_ns();
+  out.ack_stamp = {m.server_epoch(), m.ack_seq(), m.persisted_seq()};
   if (auto e = AcksFromMsg(m, expected_agent, &out); !e.empty()) return reject(e);
   if (m.keyframes().empty() && m.map_points().empty()) return out;
   ServerMapData data;

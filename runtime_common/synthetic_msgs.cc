@@ -145,6 +145,8 @@ msg::ServerToAgent MakeServerToAgent(std::uint16_t agent, int num_keyframes, int
   m.protocol_version(msg::kProtocolVersion);
   m.agent_id(agent);
   m.ref_kf_id(KeyframeId::Make(agent, 1).packed());
+  m.server_epoch(1);
+  m.ack_seq(num_acks > 0 ? 1 : 0);
   for (int i = 0; i < num_acks; ++i) m.acked_kf_ids().push_back(KeyframeId::Make(agent, i + 1).packed());
   // Other agents' data, as the server shares it.
   for (int i = 0; i < num_keyframes; ++i) {

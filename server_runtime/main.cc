@@ -261,10 +261,18 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
       next_status = now + seconds(a.config.status_period_s);
     }
     if (a.config.autosave_s > 0.0 && !a.config.save_map.empty() && now >= next_autosave) {
+      // Persisted acks (docs/protocol.md): every ack written so far is for a keyframe that
+      // is in the stack and counted in its version (the back-end counts before it acks), so
+      // once a snapshot taken after this point is on disk, or nothing changed since the
+      // last save, the agents may let those keyframes go.
+      const uint64_t acked_through = s.comm->AckSeqIssued();
       const int64_t version = StackVersion(*s.backend);
-      if (version != saved_version && SaveMapStack(*s.backend, a.config.save_map, "autosave")) {
+      if (version == saved_version) {
+        s.comm->OnPersisted(acked_through);
+      } else if (SaveMapStack(*s.backend, a.config.save_map, "autosave")) {
         saved_version = version;
         daemon.last_save_s = stats.elapsed_s;
+        s.comm->OnPersisted(acked_through);
       }
       next_autosave = Clock::now() + seconds(a.config.autosave_s);
     }

@@ -66,7 +66,11 @@ std::unique_ptr<ServerComm> ServerComm::Create(const ServerConfig& config, rt::S
 }
 
 ServerComm::ServerComm(ServerConfig config, std::unique_ptr<rt::DdsSession> session, ServerBackend* backend)
-    : config_(std::move(config)), session_(std::move(session)), backend_(backend), start_(Clock::now()) {}
+    : config_(std::move(config)),
+      session_(std::move(session)),
+      backend_(backend),
+      start_(Clock::now()),
+      epoch_(static_cast<uint64_t>(std::max<int64_t>(1, rt::WallClockNs()))) {}
 
 ServerComm::~ServerComm() { Stop(); }
 

@@ -18,6 +18,10 @@
 //    loss an agent got 24 messages in 60 s and left keyframes unacked). A new neighbourhood
 //    does not replace one the agent has not received yet for kNeighbourhoodPatience, so a
 //    lossy link delivers an older neighbourhood instead of none.
+//  * durable acks (docs/protocol.md "Epochs and persisted acks"): every message carries this
+//    start's epoch; ack messages are numbered; the daemon's autosave reports which numbers
+//    its map file covers (OnPersisted), and the acks writer repeats that at least every
+//    kAckHeartbeat, so an agent learns of a restart and of each save even when idle.
 //  * reassembly (KeyframeReassembly, keyframe_reassembly.h): keyframes wait for their points,
 //    updates that overtook their data are kept, resends of held keyframes replace them.
 //  * no polling: the readers signal one Wakeup; the comm thread sleeps until a sample
@@ -109,6 +113,16 @@ class ServerComm {
   /// The participant, for the daemon's own writers (status topic); same lifetime as this.
   rt::DdsSession& session() { return *session_; }
 
+  /// This start's epoch (its wall-clock start time in ns).
+  uint64_t epoch() const { return epoch_; }
+  /// The newest ack message number written. Read it before taking a snapshot to save: the
+  /// acks of messages up to it are for keyframes the snapshot holds.
+  uint64_t AckSeqIssued() const { return ack_seq_issued_.load(); }
+  /// The saved map file holds the acks of every message numbered <= `seq`. Any thread.
+  void OnPersisted(uint64_t seq);
+  /// Without a map file (save_map empty) nothing is ever persisted: acks are final at once.
+  bool persists() const { return !config_.save_map.empty(); }
+
  private:
   struct PendingAck {
     uint64_t id;
@@ -119,7 +133,13 @@ class ServerComm {
     KeyframeId shared_ref;  ///< reference keyframe of the last neighbourhood sent
     std::chrono::steady_clock::time_point next_publish;
     std::chrono::steady_clock::time_point last_neighbourhood;  ///< when it was written
+    std::chrono::steady_clock::time_point last_ack_message;   ///< when the last acks message was written
+    uint64_t persisted_sent = 0;  ///< persisted_seq in it
   };
+  /// An agent hears from the acks writer at least this often (epoch, persisted_seq).
+  static constexpr std::chrono::seconds kAckHeartbeat{1};
+  /// The stamp of the next message to an agent; `with_acks` numbers it.
+  conv::ServerAckStamp NextAckStamp(bool with_acks);
   /// One agent's writers, both in its partition (rt::AgentPartition) on ccm/server_to_agent:
   /// separate reliable streams, so acks never queue behind a neighbourhood under repair.
   struct AgentWriters {
@@ -177,6 +197,9 @@ class ServerComm {
   std::set<AgentId> refused_logged_;
 
   const std::chrono::steady_clock::time_point start_;
+  const uint64_t epoch_;
+  std::atomic<uint64_t> ack_seq_issued_{0};
+  std::atomic<uint64_t> persisted_seq_{0};
   mutable std::mutex mutex_;  // guards stats_; leaf
   ServerCommStats stats_;
   std::atomic<bool> running_{false};

@@ -59,8 +59,13 @@ void ServerComm::PublishToAgents() {
     const auto kf_ids = take(&st.kf_acks, [](uint64_t v) { return KeyframeId(v); });
     const auto mp_ids = take(&st.mp_acks, [](uint64_t v) { return MapPointId(v); });
     int sent = 0, shared = 0, deferred = 0;
-    if (!kf_ids.empty() || !mp_ids.empty()) {
-      sent += writers.acks->Write(conv::ToMsg(agent, rt::WallClockNs(), kf_ids, mp_ids, nullptr)) ? 1 : 0;
+    const bool with_acks = !kf_ids.empty() || !mp_ids.empty();
+    const bool new_save = persists() && st.persisted_sent != persisted_seq_.load();
+    if (with_acks || new_save || now - st.last_ack_message >= kAckHeartbeat) {
+      const conv::ServerAckStamp stamp = NextAckStamp(with_acks);
+      sent += writers.acks->Write(conv::ToMsg(agent, rt::WallClockNs(), kf_ids, mp_ids, nullptr, stamp)) ? 1 : 0;
+      st.last_ack_message = now;
+      st.persisted_sent = stamp.persisted_seq;
     }
     if (config_.map_sharing && config_.neighbourhood_k > 0 && reference_kf.valid() && reference_kf != st.shared_ref) {
       // Zero timeout: only asks whether the agent's reader has the last one.
@@ -70,7 +75,9 @@ void ServerComm::PublishToAgents() {
       } else if (auto data = backend_->Neighbourhood(agent, reference_kf)) {
         st.shared_ref = reference_kf;
         st.last_neighbourhood = now;
-        if (writers.neighbourhoods->Write(conv::ToMsg(agent, rt::WallClockNs(), {}, {}, &*data))) ++sent, ++shared;
+        if (writers.neighbourhoods->Write(conv::ToMsg(agent, rt::WallClockNs(), {}, {}, &*data, NextAckStamp(false)))) {
+          ++sent, ++shared;
+        }
       }
     }
     std::lock_guard<std::mutex> lock(mutex_);
@@ -78,6 +85,22 @@ void ServerComm::PublishToAgents() {
     link.messages_sent += sent;
     link.neighbourhoods_sent += shared;
     link.neighbourhoods_deferred += deferred;
+  }
+}
+
+conv::ServerAckStamp ServerComm::NextAckStamp(bool with_acks) {
+  conv::ServerAckStamp stamp;
+  stamp.epoch = epoch_;
+  // Numbered after the acks were taken (TakeAcks): a snapshot that starts after reading
+  // AckSeqIssued() holds every keyframe acked in messages up to it.
+  if (with_acks) stamp.ack_seq = ++ack_seq_issued_;
+  stamp.persisted_seq = persists() ? persisted_seq_.load() : ack_seq_issued_.load();
+  return stamp;
+}
+
+void ServerComm::OnPersisted(uint64_t seq) {
+  uint64_t old = persisted_seq_.load();
+  while (seq > old && !persisted_seq_.compare_exchange_weak(old, seq)) {
   }
 }
 

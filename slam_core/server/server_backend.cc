@@ -187,12 +187,6 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     AddEvent(e);
   }
   {
-    std::lock_guard<std::mutex> lock(acks_mutex_);
-    AgentAcks& a = acks_[reg->agent()];
-    a.keyframes.insert(a.keyframes.end(), report.acked_keyframes.begin(), report.acked_keyframes.end());
-    a.map_points.insert(a.map_points.end(), report.acked_points.begin(), report.acked_points.end());
-  }
-  {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     AgentCounters& c = stats_.agents[reg->agent()];
     ++c.batches;
@@ -210,6 +204,14 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     for (const double ms : kf_ms) {
       if (c.keyframe_ms.size() < kMaxTimingSamples) c.keyframe_ms.push_back(ms);
     }
+  }
+  // Acks after the counters: whoever sees an ack then sees the registration in the stats
+  // (the daemon's autosave compares them to tell persisted acks, docs/protocol.md).
+  {
+    std::lock_guard<std::mutex> lock(acks_mutex_);
+    AgentAcks& a = acks_[reg->agent()];
+    a.keyframes.insert(a.keyframes.end(), report.acked_keyframes.begin(), report.acked_keyframes.end());
+    a.map_points.insert(a.map_points.end(), report.acked_points.begin(), report.acked_points.end());
   }
   scheduler_.QueueForPlaceRecognition(for_place_recognition);
   if (options_.redundancy.enabled && !report.keyframes.empty()) {

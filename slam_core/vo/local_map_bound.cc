@@ -38,21 +38,22 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
     old.push_back(*it);
   }
   std::reverse(old.begin(), old.end());  // oldest first
-  // Old own keyframes leave once acknowledged; unacknowledged ones wait in the buffer.
-  // Old foreign keyframes stay while there is room: they help tracking.
-  std::vector<KeyframeId> buffered;
+  // Old own keyframes leave once the server has them for good; the others wait in the
+  // buffer. Old foreign keyframes stay while there is room: they help tracking.
+  std::vector<KeyframeId> processed, unacked;  // buffered, oldest first
   for (const KeyframeId kf : old) {
     if (kf.agent() != own_agent_) continue;
-    if (acks.IsAcked(kf)) {
+    if (acks.IsPersisted(kf)) {
       if (EraseFromMap(map, kf)) ++stats_.removed_acked;
     } else {
-      buffered.push_back(kf);
+      (acks.IsAcked(kf) ? processed : unacked).push_back(kf);
     }
   }
   const size_t limit = n + static_cast<size_t>(options_.max_unacked_buffer);
   size_t total = recency_.size();
   // Over N+B: first keyframes of other agents (the server has them; even recent ones,
-  // since losing own unacknowledged data is worse), then the oldest unacknowledged own ones.
+  // since losing own data is worse), then the oldest processed but unsaved own ones (at
+  // risk only if the server crashes), then the oldest unacknowledged own ones.
   std::vector<KeyframeId> foreign;
   for (const KeyframeId kf : recency_) {
     if (kf.agent() != own_agent_ && kf != reference_kf) foreign.push_back(kf);
@@ -61,7 +62,11 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
     if (total <= limit) break;
     if (EraseFromMap(map, kf)) --total, ++stats_.removed_foreign;
   }
-  for (const KeyframeId kf : buffered) {
+  for (const KeyframeId kf : processed) {
+    if (total <= limit) break;
+    if (EraseFromMap(map, kf)) --total, ++stats_.removed_unpersisted;
+  }
+  for (const KeyframeId kf : unacked) {
     if (total <= limit) break;
     if (EraseFromMap(map, kf)) --total, ++stats_.removed_lost;
   }

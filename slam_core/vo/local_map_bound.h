@@ -1,8 +1,11 @@
 // Keeps the agent's local map bounded as CCM-SLAM specifies: the reference keyframe and
-// the N-1 most recent keyframes stay; older keyframes leave once the server acknowledged
-// them; unacknowledged ones wait in a buffer of up to B. Over N+B, keyframes that came
-// from other agents (the server has them) go first, then the oldest buffered ones, which
-// is data loss and is counted. Owned by the local-mapping side of the agent VO.
+// the N-1 most recent keyframes stay; older keyframes leave once the server has them for
+// good (acknowledged and persisted: a restarted server may need the others again); the
+// others wait in a buffer of up to B. Over N+B, keyframes that came from other agents (the
+// server has them) go first, then the oldest buffered ones that the server processed but
+// has not saved yet (lost only if it crashes before its next save), then the oldest
+// unacknowledged ones, which is data loss. Both are counted. Owned by the local-mapping
+// side of the agent VO.
 #pragma once
 
 #include <cstdint>
@@ -19,7 +22,10 @@ namespace ccm {
 class AckSource {
  public:
   virtual ~AckSource() = default;
+  /// The server processed `kf`.
   virtual bool IsAcked(KeyframeId kf) const = 0;
+  /// ... and saved it where a restart finds it (a server that saves nothing: when processed).
+  virtual bool IsPersisted(KeyframeId kf) const { return IsAcked(kf); }
 };
 
 class AckAll final : public AckSource {
@@ -40,8 +46,9 @@ struct LocalMapBoundOptions {
 
 /// Cumulative counts of what trimming removed.
 struct TrimStats {
-  int64_t removed_acked = 0;     ///< own KFs the server already had
+  int64_t removed_acked = 0;     ///< own KFs the server already had (acknowledged and persisted)
   int64_t removed_foreign = 0;   ///< KFs received from other agents via the server
+  int64_t removed_unpersisted = 0;  ///< own KFs acknowledged, not yet persisted: lost if the server crashes now
   int64_t removed_lost = 0;      ///< unacknowledged own KFs dropped: lost for the server
 };
 

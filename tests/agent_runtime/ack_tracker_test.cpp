@@ -158,3 +158,105 @@ TEST(AckTracker, AckLatencyCountsFromTheFirstSendNotTheResend) {
 
 }  // namespace
 }  // namespace ccm::agent
+
+// ---- Durable acks: epochs and persisted acks (docs/protocol.md).
+namespace ccm::agent {
+namespace {
+
+constexpr std::uint64_t kEpoch1 = 1000, kEpoch2 = 2000;
+
+TEST(AckTracker, AKeyframeIsPersistedOnlyOnceASaveCoversItsAckMessage) {
+  AckTracker t(milliseconds(0));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 4; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1), Kf(2)}, t0, {kEpoch1, 1, 0});  // ack message 1, nothing saved yet
+  t.OnAcked({Kf(3)}, t0, {kEpoch1, 2, 0});
+  EXPECT_TRUE(t.IsAcked(Kf(3)));
+  EXPECT_FALSE(t.IsPersisted(Kf(1)));
+  EXPECT_EQ(t.unpersisted_count(), 3u);
+  t.OnAcked({}, t0, {kEpoch1, 0, 1});  // a heartbeat: the map file covers message 1
+  EXPECT_TRUE(t.IsPersisted(Kf(1)));
+  EXPECT_TRUE(t.IsPersisted(Kf(2)));
+  EXPECT_FALSE(t.IsPersisted(Kf(3)));
+  EXPECT_EQ(t.persisted_count(), 2u);
+  EXPECT_EQ(t.unpersisted_count(), 1u);
+  const AckSource& as_source = t;
+  EXPECT_TRUE(as_source.IsPersisted(Kf(2)));
+  EXPECT_FALSE(as_source.IsPersisted(Kf(3)));
+}
+
+TEST(AckTracker, ARestartedServerGetsWhatItProcessedButHadNotSavedAndNothingElse) {
+  AckTracker t(milliseconds(0));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 6; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1), Kf(2)}, t0, {kEpoch1, 1, 0});
+  t.OnAcked({Kf(3), Kf(4)}, t0, {kEpoch1, 2, 1});  // saved through message 1
+  // KF 5 was never acked, KF 6 is in flight. The server dies; a new start says hello.
+  const auto resend = t.OnAcked({}, t0 + milliseconds(10), {kEpoch2, 0, 0});
+  EXPECT_EQ(resend, (std::vector<KeyframeId>{Kf(3), Kf(4)})) << "processed, unsaved: gone with the old server";
+  EXPECT_EQ(t.server_restarts(), 1u);
+  EXPECT_EQ(t.resent_after_restart_count(), 2u);
+  EXPECT_TRUE(t.IsPersisted(Kf(1)));
+  EXPECT_FALSE(t.IsAcked(Kf(3)));
+  EXPECT_EQ(t.unacked_count(), 4u);  // 3, 4 (resent) and 5, 6 (the timeout rule's)
+  EXPECT_EQ(t.acked_count(), 2u);    // distinct keyframes acked: 1 and 2
+  // The new server acks them under its own numbering and saves.
+  t.OnAcked({Kf(3), Kf(4), Kf(5), Kf(6)}, t0 + milliseconds(20), {kEpoch2, 1, 1});
+  for (int i = 1; i <= 6; ++i) EXPECT_TRUE(t.IsPersisted(Kf(i))) << i;
+  EXPECT_EQ(t.acked_count(), 6u);
+  EXPECT_EQ(t.unacked_count(), 0u);
+  EXPECT_EQ(t.unpersisted_count(), 0u);
+}
+
+TEST(AckTracker, MessagesOfAnOlderServerStartAreIgnored) {
+  AckTracker t(milliseconds(0));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 3; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1)}, t0, {kEpoch2, 1, 1});
+  EXPECT_TRUE(t.OnAcked({Kf(2)}, t0, {kEpoch1, 7, 7}).empty());
+  EXPECT_FALSE(t.IsAcked(Kf(2))) << "an ack of a server that is gone says nothing about the current one";
+  EXPECT_EQ(t.stale_messages(), 1u);
+  EXPECT_EQ(t.server_restarts(), 0u);
+}
+
+TEST(AckTracker, ASaveNumberFromTheSameMessageMakesItsAcksFinal) {
+  // A server without a map file: persisted_seq is the message's own number.
+  AckTracker t(milliseconds(0));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 3; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1), Kf(2), Kf(3)}, t0, {kEpoch1, 5, 5});
+  for (int i = 1; i <= 3; ++i) EXPECT_TRUE(t.IsPersisted(Kf(i))) << i;
+  EXPECT_TRUE(t.OnAcked({}, t0, {kEpoch2, 0, 0}).empty()) << "nothing to resend after a restart";
+}
+
+}  // namespace
+}  // namespace ccm::agent
+
+namespace ccm::agent {
+namespace {
+
+TEST(AckTracker, AServerRestartedWithItsClockSetBackIsAdoptedAfterARunOfItsMessages) {
+  // Epochs are start times: a ground station whose clock went back starts with a smaller
+  // one. Ignoring it forever would leave every keyframe unacknowledged.
+  AckTracker t(std::chrono::milliseconds(0));
+  const auto t0 = Clock::now();
+  for (int i = 1; i <= 3; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1), Kf(2)}, t0, {2000, 1, 0});
+  std::vector<KeyframeId> resend;
+  for (int i = 0; i < AckTracker::kStaleRunToAdopt; ++i) resend = t.OnAcked({Kf(3)}, t0, {500, 1, 0});
+  EXPECT_EQ(resend, (std::vector<KeyframeId>{Kf(1), Kf(2)}));
+  EXPECT_EQ(t.server_restarts(), 1u);
+  EXPECT_TRUE(t.IsAcked(Kf(3)));
+  EXPECT_FALSE(t.IsAcked(Kf(1))) << "acked by the old start, not saved: resent";
+  // One message of the newest epoch in between restarts the count.
+  AckTracker u(std::chrono::milliseconds(0));
+  u.OnSent(Kf(1), t0);
+  u.OnAcked({}, t0, {2000, 0, 0});
+  for (int i = 0; i < 3 * AckTracker::kStaleRunToAdopt; ++i) {
+    u.OnAcked({}, t0, {i % (AckTracker::kStaleRunToAdopt - 1) == 0 ? 2000u : 500u, 0, 0});
+  }
+  EXPECT_EQ(u.server_restarts(), 0u);
+}
+
+}  // namespace
+}  // namespace ccm::agent

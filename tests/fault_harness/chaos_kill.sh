@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Chaos run (issue 28): ccm_server is SIGKILLed at CHAOS_KILLS random moments of a 3-agent
 # flight (the simulator's hall3, sim agents 0-2, over qos_profiles/wifi.xml) and restarted
-# each time, after a random 0.5-3 s outage, from its map file (autosave every 2 s). A run of
-# the same flight without kills goes first, for the accuracy comparison. What the killed
-# servers had not saved must come back from the agents (their DDS history, 600 samples per
-# writer, and their unacknowledged buffer). Prints, and writes to OUT/chaos.md, per run and
+# each time, after a random 0.5-3 s outage, from its map file (autosave every CHAOS_AUTOSAVE
+# s). A run of the same flight without kills goes first, for the accuracy comparison. What
+# the killed servers had not saved must come back from the agents: their resends of what
+# was acked but not persisted when they see the new server's epoch (docs/protocol.md), their
+# DDS history (600 samples per writer with wifi.xml; none with CHAOS_VOLATILE=1, which runs
+# a copy of wifi.xml whose new-data topics are VOLATILE, so the epoch resends alone must do
+# it), and their unacknowledged buffer. Prints, and writes to OUT/chaos.md, per run and
 # agent: keyframes acknowledged / unacknowledged / lost, resends, the keyframes the last
 # server registered and those in its final map (redundant ones are removed, anchors are not
 # map keyframes), fusions, and the collaborative ATE (ccm_eval, one Sim(3)).
@@ -14,7 +17,7 @@
 #
 # usage: tests/fault_harness/chaos_kill.sh [OUT_DIR]   (env: BUILD_DIR, CHAOS_KILLS=5,
 #        CHAOS_FRAMES=1200, CHAOS_RATE=0.5 (of real time: 3 real-time VOs need more than 2
-#        cores), CHAOS_SEED=1)
+#        cores), CHAOS_SEED=1, CHAOS_AUTOSAVE=10, CHAOS_VOLATILE=0)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 BIN="${BUILD_DIR:-$ROOT/build}"
@@ -23,15 +26,22 @@ KILLS="${CHAOS_KILLS:-5}"
 FRAMES="${CHAOS_FRAMES:-1200}"
 RATE="${CHAOS_RATE:-0.5}"
 RANDOM="${CHAOS_SEED:-1}"
+AUTOSAVE="${CHAOS_AUTOSAVE:-10}"
 QOS="$ROOT/qos_profiles/wifi.xml"
 for b in server_runtime/ccm_server agent_runtime/ccm_agent tools/eval/ccm_eval; do
   [ -x "$BIN/$b" ] || { echo "missing $BIN/$b: build first (deploy/build.sh)"; exit 2; }
 done
 mkdir -p "$OUT"
+if [ "${CHAOS_VOLATILE:-0}" = 1 ]; then
+  # New-data writers and readers VOLATILE: nothing replayed from DDS history to a new server.
+  sed 's|<durability><kind>TRANSIENT_LOCAL</kind></durability>|<durability><kind>VOLATILE</kind></durability>|' \
+    "$QOS" >"$OUT/wifi-volatile.xml"
+  QOS="$OUT/wifi-volatile.xml"
+fi
 flight_s=$(python3 -c "print(int($FRAMES / 20 / $RATE))")
 
 start_server() {  # dir life domain
-  "$BIN/server_runtime/ccm_server" --qos "$QOS" --domain "$3" --map-file "$1/stack.ccmmap" --autosave 2 \
+  "$BIN/server_runtime/ccm_server" --qos "$QOS" --domain "$3" --map-file "$1/stack.ccmmap" --autosave "$AUTOSAVE" \
     --out "$1/server" --progress 1000 --log-level info >"$1/server$2.log" 2>&1 &
   server_pid=$!
 }
@@ -108,9 +118,12 @@ for run in ("baseline", "chaos"):
         tum = d / "server" / f"agent{a}_keyframes.tum"
         in_map = sum(1 for l in tum.read_text().splitlines() if l and not l.startswith("#")) if tum.exists() else 0
         rows.append(f"| {run} | {lives - 1} | {a} | {link.get('kfs_acked')} | {unacked} | {lost} | {link.get('kfs_resent')} "
+                    f"| {link.get('server_restarts')} | {link.get('kfs_resent_after_restart')} "
+                    f"| {j.get('keyframes_dropped_unpersisted')} "
                     f"| {s.get('keyframes_registered')} | {in_map} | {server.get('fusions')} |")
-table = ["| run | kills | agent | acked | unacked | lost | resent | registered by the last server | in the final map | fusions (last server) |",
-         "|---|---|---|---|---|---|---|---|---|---|"] + rows
+table = ["| run | kills | agent | acked | unacked | lost | resent | restarts seen | resent after a restart "
+         "| dropped unpersisted | registered by the last server | in the final map | fusions (last server) |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|"] + rows
 b, c = ate.get("baseline"), ate.get("chaos")
 table.append("")
 table.append(f"collaborative ATE: without kills {b} m, with kills {c} m")

@@ -156,9 +156,9 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
 TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) {
   // No clean stop: the process dies between autosaves (every 2 s). The map file on disk is
   // a complete generation (written, fsynced, renamed), the one before it is kept as .prev,
-  // and a new server loads it; the agent, still flying, reconnects and ends with every
-  // keyframe acknowledged (what the killed server had not saved is resent from the agent's
-  // unacknowledged buffer or DDS history).
+  // and a new server loads it; the agent, still flying, sees the new server's epoch, resends
+  // what the killed server had acked but not saved, and ends with every keyframe
+  // acknowledged, none lost.
   constexpr int kKillDomain = 186;
   const std::string dir = ::testing::TempDir() + "/daemon_kill";
   std::filesystem::remove_all(dir);
@@ -202,11 +202,15 @@ TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) 
   const auto agent_json = AgentSummary(agent_out);
   ASSERT_TRUE(agent_json.is_object()) << agent_out;
   EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
+  EXPECT_EQ(agent_json["keyframes_lost"].get<int>(), 0) << agent_out;
+  EXPECT_EQ(agent_json["link"]["server_restarts"].get<int>(), 1) << "the agent must see the new epoch\n" << agent_out;
+  EXPECT_GT(agent_json["link"]["kfs_persisted"].get<int>(), 0) << agent_out;
   ASSERT_TRUE(server2.Signal(SIGTERM));
   EXPECT_EQ(server2.Wait(std::chrono::seconds(60)), 0) << server2.Output();
   std::cout << "killed with " << MapKeyframes(before) << " KFs in status (last autosave at "
             << before["last_save_s"] << " s); the restarted server had " << MapKeyframes(after)
-            << " KFs once the agent was back; agent acked " << agent_json["link"]["kfs_acked"] << " KFs\n";
+            << " KFs once the agent was back; agent acked " << agent_json["link"]["kfs_acked"]
+            << " KFs, resent " << agent_json["link"]["kfs_resent_after_restart"] << " after the restart\n";
 }
 
 TEST(Daemon, CtlReportsNoServerWithExitCode1) {

@@ -26,6 +26,37 @@ class SetAck final : public AckSource {
   bool IsAcked(KeyframeId kf) const override { return acked.count(kf) > 0; }
 };
 
+// Acked (processed) and persisted (saved by the server) as two sets.
+class DurableAck final : public AckSource {
+ public:
+  std::set<KeyframeId> acked, persisted;
+  bool IsAcked(KeyframeId kf) const override { return acked.count(kf) > 0; }
+  bool IsPersisted(KeyframeId kf) const override { return persisted.count(kf) > 0; }
+};
+
+TEST(LocalMapBound, ProcessedButUnsavedKeyframesStayUntilPersistedAndGoBeforeUnackedOnes) {
+  Chain chain;
+  LocalMapBound bound(1, {5, 5});
+  DurableAck acks;
+  for (int i = 0; i < 10; ++i) bound.Trim(&chain.builder.map(), chain.Add(&bound), acks);
+  // 0-3 processed, 4 not, nothing saved: all 10 stay (N + B).
+  for (int i = 0; i < 4; ++i) acks.acked.insert(chain.ids[i]);
+  bound.Trim(&chain.builder.map(), chain.ids.back(), acks);
+  EXPECT_EQ(chain.builder.map().num_keyframes(), 10u) << "a restarted server may need them";
+  // Two more keyframes: over N + B the oldest processed ones go first, counted apart.
+  for (int i = 0; i < 2; ++i) bound.Trim(&chain.builder.map(), chain.Add(&bound), acks);
+  EXPECT_EQ(chain.builder.map().num_keyframes(), 10u);
+  EXPECT_EQ(bound.stats().removed_unpersisted, 2);
+  EXPECT_EQ(bound.stats().removed_lost, 0);
+  EXPECT_EQ(chain.builder.map().keyframe(chain.ids[0]), nullptr);
+  EXPECT_NE(chain.builder.map().keyframe(chain.ids[4]), nullptr) << "the unacked one outlives processed ones";
+  // A save covers 2 and 3: they leave as the server's for good.
+  acks.persisted = {chain.ids[2], chain.ids[3]};
+  bound.Trim(&chain.builder.map(), chain.ids.back(), acks);
+  EXPECT_EQ(bound.stats().removed_acked, 2);
+  EXPECT_EQ(chain.builder.map().num_keyframes(), 8u);
+}
+
 TEST(LocalMapBound, WithoutAcksKeepsAtMostNPlusBAndCountsLoss) {
   Chain chain;
   LocalMapBound bound(1, {10, 10});
