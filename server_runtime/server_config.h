@@ -25,7 +25,7 @@ struct ServerConfig {
   std::string save_map;              // save the map stack here on exit (empty: not saved)
   std::string map_file;              // daemon map: loaded at start if it exists, saved on exit and by autosave
                                      // (load_map / save_map, when given, win for their direction)
-  double autosave_s = 30.0;          // save the map stack this often while running (0: only on exit); sized with the agents' B (docs/protocol.md "N+B")
+  double autosave_s = 20.0;          // save the map stack this often while running (0: only on exit); sized with the agents' B (docs/protocol.md "N+B")
   double status_period_s = 1.0;      // ServerStatus topic period (ccm_ctl status)
 
   std::string Validate() const;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Long flight (issue 28): one ccm_agent flies hall3's agent-0 loop for LONG_MINUTES (default
-# 60) against a ccm_server that saves its map file every LONG_AUTOSAVE s (default 30, the
+# 60) against a ccm_server that saves its map file every LONG_AUTOSAVE s (default 20, the
 # packaged value), over qos_profiles/wifi.xml. Every LONG_SAMPLE_S s it samples both
 # processes' resident memory (/proc/PID/status VmRSS) into OUT/memory.csv. At the end it
 # prints the agent's summary counters and the memory at each tenth of the flight.
@@ -9,14 +9,14 @@
 # (default 20) of its RSS at LONG_WARMUP_MIN (default 5) minutes: flat over the flight.
 #
 # usage: tests/fault_harness/long_flight.sh [OUT_DIR]   (env: BUILD_DIR, LONG_MINUTES=60,
-#        LONG_RATE=1 (of real time), LONG_AUTOSAVE=30, LONG_SAMPLE_S=30, LONG_DOMAIN=191)
+#        LONG_RATE=1 (of real time), LONG_AUTOSAVE=20, LONG_SAMPLE_S=30, LONG_DOMAIN=191)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 BIN="${BUILD_DIR:-$ROOT/build}"
 OUT="${1:-$PWD/long-flight-out}"
 MINUTES="${LONG_MINUTES:-60}"
 RATE="${LONG_RATE:-1}"
-AUTOSAVE="${LONG_AUTOSAVE:-30}"
+AUTOSAVE="${LONG_AUTOSAVE:-20}"
 SAMPLE_S="${LONG_SAMPLE_S:-30}"
 WARMUP_MIN="${LONG_WARMUP_MIN:-5}"
 SLACK_MB="${LONG_RSS_SLACK_MB:-20}"
