@@ -18,7 +18,7 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
   if (stamp.epoch < epoch_) {  // from a server start before the newest one seen
     stale_run_ = stamp.epoch == stale_run_epoch_ ? stale_run_ + 1 : 1;
     stale_run_epoch_ = stamp.epoch;
-    ++stale_messages_;
+    ++durable_.stale_messages;
     if (stale_run_ < kStaleRunToAdopt) return {};
   }
   if (stamp.epoch == epoch_) stale_run_ = 0;
@@ -28,7 +28,7 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
     // A server start: what the previous one processed but had not saved is gone with it.
     // Resend at once (the new server has nothing of it) and wait for this epoch's acks.
     if (epoch_ != 0) {
-      ++server_restarts_;
+      ++durable_.server_restarts;
       for (auto& [id, entry] : entries_) {
         if (!entry.acked || entry.persisted) continue;
         entry.acked = false;
@@ -37,7 +37,7 @@ std::vector<KeyframeId> AckTracker::OnAcked(const std::vector<KeyframeId>& acked
         acked_.erase(id);
         --acked_count_;
         ++resent_count_;
-        ++resent_after_restart_;
+        ++durable_.resent_after_restart;
         resend.push_back(id);
       }
     }
@@ -87,7 +87,7 @@ void AckTracker::MarkPersistedLocked() {
     }
     e.persisted = true;
     persisted_.insert(it->first);
-    ++persisted_count_;
+    ++durable_.persisted;
     // Kept while an unacknowledged entry precedes it: the gap rule needs its successor.
     it = it == entries_.begin() ? entries_.erase(it) : std::next(it);
   }
@@ -158,31 +158,11 @@ std::uint64_t AckTracker::resent_count() const {
   return resent_count_;
 }
 
-std::size_t AckTracker::unpersisted_count() const {
+AckTracker::DurableCounts AckTracker::durable_counts() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  std::size_t n = 0;
-  for (const auto& [id, entry] : entries_) n += entry.acked && !entry.persisted ? 1 : 0;
-  return n;
-}
-
-std::uint64_t AckTracker::persisted_count() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return persisted_count_;
-}
-
-std::uint64_t AckTracker::server_restarts() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return server_restarts_;
-}
-
-std::uint64_t AckTracker::resent_after_restart_count() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return resent_after_restart_;
-}
-
-std::uint64_t AckTracker::stale_messages() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return stale_messages_;
+  DurableCounts c = durable_;
+  for (const auto& [id, entry] : entries_) c.unpersisted += entry.acked && !entry.persisted ? 1 : 0;
+  return c;
 }
 
 std::size_t AckTracker::unacked_count() const {

@@ -78,14 +78,15 @@ class AckTracker final : public AckSource {
   /// Of those, by the gap rule (the rest by the timeout rule).
   std::uint64_t resent_gap_count() const;
   std::size_t unacked_count() const;
-  /// Acknowledged but not persisted yet: needed again if the server restarts now.
-  std::size_t unpersisted_count() const;
-  std::uint64_t persisted_count() const;
-  /// Server starts seen after the first (newer epochs), KFs resent because of them, and
-  /// messages ignored as older than the newest epoch.
-  std::uint64_t server_restarts() const;
-  std::uint64_t resent_after_restart_count() const;
-  std::uint64_t stale_messages() const;
+  /// What the durable acks did so far (one lock for all of it).
+  struct DurableCounts {
+    std::size_t unpersisted = 0;            ///< acknowledged, not persisted: needed if the server restarts now
+    std::uint64_t persisted = 0;
+    std::uint64_t server_restarts = 0;      ///< newer epochs seen after the first
+    std::uint64_t resent_after_restart = 0;
+    std::uint64_t stale_messages = 0;       ///< ignored: older than the newest epoch
+  };
+  DurableCounts durable_counts() const;
 
   static constexpr int kStaleRunToAdopt = 20;
   /// Acknowledged ids remembered for IsAcked (far more than a local map's N + B keyframes).
@@ -109,7 +110,7 @@ class AckTracker final : public AckSource {
   std::uint64_t persisted_seq_ = 0;      // in epoch_
   std::uint64_t stale_run_epoch_ = 0;    // the older epoch of the current run of stale messages
   int stale_run_ = 0;
-  std::uint64_t persisted_count_ = 0, server_restarts_ = 0, resent_after_restart_ = 0, stale_messages_ = 0;
+  DurableCounts durable_;  // .unpersisted is computed by durable_counts()
   std::deque<float> latencies_ms_;       // newest kRememberedAcks send-to-ack times
   std::chrono::milliseconds holdoff_;
   std::uint64_t acked_count_ = 0;

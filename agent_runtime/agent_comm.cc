@@ -100,11 +100,12 @@ AgentCommStats AgentComm::Stats() const {
   s.ack_latency = acks_->AckLatency();  // the tracker's own (leaf) lock, not under ours
   s.kfs_resent_gap = acks_->resent_gap_count();
   s.new_data_bytes_per_cycle = bytes_per_cycle_;  // set once in Create
-  s.kfs_persisted = acks_->persisted_count();
-  s.kfs_unpersisted = acks_->unpersisted_count();
-  s.server_restarts = acks_->server_restarts();
-  s.kfs_resent_after_restart = acks_->resent_after_restart_count();
-  s.server_msgs_stale = acks_->stale_messages();
+  const AckTracker::DurableCounts durable = acks_->durable_counts();
+  s.kfs_persisted = durable.persisted;
+  s.kfs_unpersisted = durable.unpersisted;
+  s.server_restarts = durable.server_restarts;
+  s.kfs_resent_after_restart = durable.resent_after_restart;
+  s.server_msgs_stale = durable.stale_messages;
   return s;
 }
 
@@ -298,7 +299,7 @@ void AgentComm::HandleServerMessage(const msg::ServerToAgent& message) {
   }
   const conv::ServerAckStamp& st = m->ack_stamp;
   const auto resend = acks_->OnAcked(m->acked_kfs, Clock::now(), {st.epoch, st.ack_seq, st.persisted_seq});
-  if (const auto restarts = acks_->server_restarts(); restarts > server_restarts_logged_) {
+  if (const auto restarts = acks_->durable_counts().server_restarts; restarts > server_restarts_logged_) {
     server_restarts_logged_ = restarts;
     spdlog::warn("agent {}: the server restarted (epoch {}); resending the {} keyframe(s) it had processed but "
                  "not saved", config_.agent_id, st.epoch, resend.size());

@@ -173,13 +173,13 @@ TEST(AckTracker, AKeyframeIsPersistedOnlyOnceASaveCoversItsAckMessage) {
   t.OnAcked({Kf(3)}, t0, {kEpoch1, 2, 0});
   EXPECT_TRUE(t.IsAcked(Kf(3)));
   EXPECT_FALSE(t.IsPersisted(Kf(1)));
-  EXPECT_EQ(t.unpersisted_count(), 3u);
+  EXPECT_EQ(t.durable_counts().unpersisted, 3u);
   t.OnAcked({}, t0, {kEpoch1, 0, 1});  // a heartbeat: the map file covers message 1
   EXPECT_TRUE(t.IsPersisted(Kf(1)));
   EXPECT_TRUE(t.IsPersisted(Kf(2)));
   EXPECT_FALSE(t.IsPersisted(Kf(3)));
-  EXPECT_EQ(t.persisted_count(), 2u);
-  EXPECT_EQ(t.unpersisted_count(), 1u);
+  EXPECT_EQ(t.durable_counts().persisted, 2u);
+  EXPECT_EQ(t.durable_counts().unpersisted, 1u);
   const AckSource& as_source = t;
   EXPECT_TRUE(as_source.IsPersisted(Kf(2)));
   EXPECT_FALSE(as_source.IsPersisted(Kf(3)));
@@ -194,8 +194,8 @@ TEST(AckTracker, ARestartedServerGetsWhatItProcessedButHadNotSavedAndNothingElse
   // KF 5 was never acked, KF 6 is in flight. The server dies; a new start says hello.
   const auto resend = t.OnAcked({}, t0 + milliseconds(10), {kEpoch2, 0, 0});
   EXPECT_EQ(resend, (std::vector<KeyframeId>{Kf(3), Kf(4)})) << "processed, unsaved: gone with the old server";
-  EXPECT_EQ(t.server_restarts(), 1u);
-  EXPECT_EQ(t.resent_after_restart_count(), 2u);
+  EXPECT_EQ(t.durable_counts().server_restarts, 1u);
+  EXPECT_EQ(t.durable_counts().resent_after_restart, 2u);
   EXPECT_TRUE(t.IsPersisted(Kf(1)));
   EXPECT_FALSE(t.IsAcked(Kf(3)));
   EXPECT_EQ(t.unacked_count(), 4u);  // 3, 4 (resent) and 5, 6 (the timeout rule's)
@@ -205,7 +205,7 @@ TEST(AckTracker, ARestartedServerGetsWhatItProcessedButHadNotSavedAndNothingElse
   for (int i = 1; i <= 6; ++i) EXPECT_TRUE(t.IsPersisted(Kf(i))) << i;
   EXPECT_EQ(t.acked_count(), 6u);
   EXPECT_EQ(t.unacked_count(), 0u);
-  EXPECT_EQ(t.unpersisted_count(), 0u);
+  EXPECT_EQ(t.durable_counts().unpersisted, 0u);
 }
 
 TEST(AckTracker, MessagesOfAnOlderServerStartAreIgnored) {
@@ -215,8 +215,8 @@ TEST(AckTracker, MessagesOfAnOlderServerStartAreIgnored) {
   t.OnAcked({Kf(1)}, t0, {kEpoch2, 1, 1});
   EXPECT_TRUE(t.OnAcked({Kf(2)}, t0, {kEpoch1, 7, 7}).empty());
   EXPECT_FALSE(t.IsAcked(Kf(2))) << "an ack of a server that is gone says nothing about the current one";
-  EXPECT_EQ(t.stale_messages(), 1u);
-  EXPECT_EQ(t.server_restarts(), 0u);
+  EXPECT_EQ(t.durable_counts().stale_messages, 1u);
+  EXPECT_EQ(t.durable_counts().server_restarts, 0u);
 }
 
 TEST(AckTracker, ASaveNumberFromTheSameMessageMakesItsAcksFinal) {
@@ -245,7 +245,7 @@ TEST(AckTracker, AServerRestartedWithItsClockSetBackIsAdoptedAfterARunOfItsMessa
   std::vector<KeyframeId> resend;
   for (int i = 0; i < AckTracker::kStaleRunToAdopt; ++i) resend = t.OnAcked({Kf(3)}, t0, {500, 1, 0});
   EXPECT_EQ(resend, (std::vector<KeyframeId>{Kf(1), Kf(2)}));
-  EXPECT_EQ(t.server_restarts(), 1u);
+  EXPECT_EQ(t.durable_counts().server_restarts, 1u);
   EXPECT_TRUE(t.IsAcked(Kf(3)));
   EXPECT_FALSE(t.IsAcked(Kf(1))) << "acked by the old start, not saved: resent";
   // One message of the newest epoch in between restarts the count.
@@ -255,7 +255,7 @@ TEST(AckTracker, AServerRestartedWithItsClockSetBackIsAdoptedAfterARunOfItsMessa
   for (int i = 0; i < 3 * AckTracker::kStaleRunToAdopt; ++i) {
     u.OnAcked({}, t0, {i % (AckTracker::kStaleRunToAdopt - 1) == 0 ? 2000u : 500u, 0, 0});
   }
-  EXPECT_EQ(u.server_restarts(), 0u);
+  EXPECT_EQ(u.durable_counts().server_restarts, 0u);
 }
 
 }  // namespace
