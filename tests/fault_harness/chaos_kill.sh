@@ -90,15 +90,11 @@ print(' '.join('%.1f' % x for x in sorted(t)))")
 
 run baseline 171 0
 run chaos 172 "$KILLS"
-python3 - "$OUT" <<'PY'
+python3 - "$OUT" "$ROOT/tests/fault_harness" <<'PY'
 import json, pathlib, re, sys
 out = pathlib.Path(sys.argv[1])
-def last_json(path):
-    for line in reversed(path.read_text(errors="replace").splitlines()):
-        if line.startswith("{"):
-            try: return json.loads(line)
-            except ValueError: pass
-    return None
+sys.path.insert(0, sys.argv[2])
+from grid_report import last_json_line as last_json  # the fault grid's reader of a summary line
 rows, ok, ate = [], True, {}
 for run in ("baseline", "chaos"):
     d = out / run

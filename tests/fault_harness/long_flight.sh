@@ -60,15 +60,11 @@ kill -INT $server 2>/dev/null || true
 wait $server || true
 trap - EXIT
 
-python3 - "$OUT" "$agent_rc" "$WARMUP_MIN" "$SLACK_MB" <<'PY'
-import csv, json, pathlib, sys
+python3 - "$OUT" "$agent_rc" "$WARMUP_MIN" "$SLACK_MB" "$ROOT/tests/fault_harness" <<'PY'
+import csv, pathlib, sys
 out, agent_rc, warmup, slack = pathlib.Path(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
-def last_json(path):
-    for line in reversed(path.read_text(errors="replace").splitlines()):
-        if line.startswith("{"):
-            try: return json.loads(line)
-            except ValueError: pass
-    return None
+sys.path.insert(0, sys.argv[5])
+from grid_report import last_json_line as last_json  # the fault grid's reader of a summary line
 rows = [(float(r["minute"]), float(r["agent_rss_mb"]), float(r["server_rss_mb"] or 0))
         for r in csv.DictReader(open(out / "memory.csv"))]
 j = last_json(out / "agent.log") or {}
