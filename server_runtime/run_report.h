@@ -30,8 +30,14 @@ struct AgentRunResult {
   Trajectory vo_keyframes;            ///< the agent's own keyframe trajectory (its VO frame)
   std::map<MapId, Trajectory> vo_segments;  ///< the same keyframes by VO segment (each its own frame)
   std::vector<ServerKeyframePose> server_keyframes;  ///< as registered on the server
+  /// Its own keyframes >= kRevisitLinkGapNs apart that share >= kRevisitLinkMinPoints
+  /// points on the server (the fusion benchmark checks them against ground truth).
+  std::vector<RevisitLink> revisit_links;
   std::vector<double> tracking_ms;
 };
+
+inline constexpr int64_t kRevisitLinkGapNs = 10'000'000'000;
+inline constexpr int kRevisitLinkMinPoints = 15;
 
 struct RunResult {
   std::vector<AgentRunResult> agents;

@@ -62,4 +62,23 @@ std::vector<ServerKeyframePose> MapStackSnapshot::AgentTrajectory(AgentId agent)
   return out;
 }
 
+std::vector<RevisitLink> MapStackSnapshot::AgentRevisitLinks(AgentId agent, int64_t min_gap_ns,
+                                                             int min_shared) const {
+  std::vector<RevisitLink> out;
+  for (const auto& m : maps) {
+    std::shared_lock<WriterPreferringMutex> lock(m->structure_mutex());
+    for (const auto& [id, info] : m->infos()) {
+      const auto late = id.agent() == agent ? m->map().keyframe(id) : nullptr;
+      if (!late) continue;
+      for (const auto& [other, weight] : late->covisibility()) {
+        if (other.agent() != agent || weight < min_shared) continue;
+        const auto early = m->map().keyframe(other);
+        if (!early || early->stamp_ns() + min_gap_ns > late->stamp_ns()) continue;
+        out.push_back({other, id, early->stamp_ns(), late->stamp_ns(), weight});
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace ccm

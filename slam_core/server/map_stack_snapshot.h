@@ -30,6 +30,15 @@ struct ServerKeyframePose {
   bool in_map = true;  ///< false: anchored (skipped or removed), pose through its anchor
 };
 
+/// Two keyframes of one agent in one map, far apart in time, that share map points: a place
+/// the agent flew again and the map holds once (a loop joined them, or the agent tracked its
+/// earlier points there, its own or the server's). Diagnostics for the fusion benchmark.
+struct RevisitLink {
+  KeyframeId early, late;
+  int64_t early_ns = 0, late_ns = 0;
+  int shared_points = 0;
+};
+
 struct MapSummary {
   MapId id;
   size_t keyframes = 0, map_points = 0, anchored = 0;
@@ -53,6 +62,9 @@ struct MapStackSnapshot {
   /// Every keyframe of `agent` in the maps (anchored ones too), sorted by stamp; takes each
   /// map's structure lock shared in turn.
   std::vector<ServerKeyframePose> AgentTrajectory(AgentId agent) const;
+  /// Every pair of `agent`'s keyframes in one map whose covisibility weight is at least
+  /// `min_shared` and whose stamps are at least `min_gap_ns` apart.
+  std::vector<RevisitLink> AgentRevisitLinks(AgentId agent, int64_t min_gap_ns, int min_shared) const;
 };
 
 /// What a back-end starts from instead of an empty stack: a loaded file (map_persistence.h),

@@ -90,10 +90,11 @@ std::string SceneBlock(const SceneResult& r, bool events) {
   }
   for (const AgentScore& a : sc.agents) {
     s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m), scale drift %.0f %% "
-                "(first 5 m at %.2f)%s, %d loop(s)\n",
+                "(first 5 m at %.2f)%s, %d loop(s), revisit links %d (%d false)\n",
                 a.name.c_str(), 100.0 * a.tracked_share, a.segments, static_cast<long long>(a.relocalizations),
                 a.vo_ate_m, a.vo_ate_path_pct, a.path_m, 100.0 * a.vo_scale_drift, a.vo_first_window_scale,
-                a.revisits ? ", revisits" : "", a.loops);
+                a.revisits ? (a.revisit_joined ? ", revisits (joined)" : ", revisits (not joined)") : "", a.loops,
+                a.true_revisit_links, a.false_revisit_links);
   }
   return s;
 }
@@ -127,7 +128,9 @@ nlohmann::json SceneJson(const SceneResult& r) {
     j["agent_vo"].push_back({{"name", a.name}, {"path_m", a.path_m}, {"tracked", a.tracked_share},
                              {"segments", a.segments}, {"relocalizations", a.relocalizations}, {"ate_m", a.vo_ate_m},
                              {"ate_path_pct", a.vo_ate_path_pct}, {"scale_drift", a.vo_scale_drift},
-                             {"first_window_scale", a.vo_first_window_scale}, {"revisits", a.revisits}, {"loops", a.loops}});
+                             {"first_window_scale", a.vo_first_window_scale}, {"revisits", a.revisits}, {"loops", a.loops},
+                             {"revisit_joined", a.revisit_joined}, {"revisit_links", a.true_revisit_links},
+                             {"false_revisit_links", a.false_revisit_links}});
   }
   return j;
 }
@@ -136,7 +139,7 @@ std::string Report(const std::vector<SceneResult>& results) {
   std::string s = "\n| seed | scene | qualifying pairs fused | median s to fusion | false fusions | loops (false) | "
                   "revisiting agents with a loop | maps | joint / VO ATE | scale spread | wall s |\n"
                   "|---|---|---|---|---|---|---|---|---|---|---|\n";
-  int q = 0, qf = 0, ff = 0, fl = 0, rev = 0, rev_loop = 0, fused_scenes = 0, good_ate = 0, good_scale = 0;
+  int q = 0, qf = 0, ff = 0, fl = 0, rev = 0, rev_loop = 0, rev_joined = 0, false_links = 0, fused_scenes = 0, good_ate = 0, good_scale = 0;
   int agents = 0, good_vo = 0, tracked_full = 0;
   std::vector<double> to_fusion, pr_ms;
   std::map<std::string, std::pair<int, int>> by_kind;  // measured kind -> (fused, qualifying)
@@ -158,6 +161,8 @@ std::string Report(const std::vector<SceneResult>& results) {
     for (const AgentScore& a : sc.agents) {
       scene_rev += a.revisits;
       scene_rev_loop += a.revisits && a.loops > 0;
+      rev_joined += a.revisits && a.revisit_joined;
+      false_links += a.false_revisit_links;
       ++agents;
       good_vo += a.vo_ate_path_pct >= 0 && a.vo_ate_path_pct <= 1.0 && a.tracked_share > 0.9;
       tracked_full += a.tracked_share >= 0.99;
@@ -177,14 +182,15 @@ std::string Report(const std::vector<SceneResult>& results) {
                 sc.worst_joint_ratio >= 0 ? Format("%.2f", sc.worst_joint_ratio).c_str() : "-",
                 sc.worst_joint_ratio >= 0 ? Format("%.1f %%", 100.0 * sc.worst_scale_spread).c_str() : "-", r.wall_s);
   }
-  s += "\n| seed | agent | path m | tracked | segments | relocalizations | VO ATE m | % of path | scale drift | first 5 m | revisits | loops |\n"
-       "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  s += "\n| seed | agent | path m | tracked | segments | relocalizations | VO ATE m | % of path | scale drift | first 5 m | revisits | loops | revisit links (false) |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const SceneResult& r : results) {
     for (const AgentScore& a : r.score.agents) {
-      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %.0f %% | %.2f | %s | %d |\n",
+      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %.0f %% | %.2f | %s | %d | %d (%d) |\n",
                   static_cast<unsigned long long>(r.scene.seed), a.name.c_str(), a.path_m, 100.0 * a.tracked_share,
                   a.segments, static_cast<long long>(a.relocalizations), a.vo_ate_m, a.vo_ate_path_pct,
-                  100.0 * a.vo_scale_drift, a.vo_first_window_scale, a.revisits ? "yes" : "no", a.loops);
+                  100.0 * a.vo_scale_drift, a.vo_first_window_scale, a.revisits ? "yes" : "no", a.loops,
+                  a.true_revisit_links, a.false_revisit_links);
     }
   }
   s += "\nRecall by measured overlap kind (qualifying pairs: >= 3 s each within 45 deg):\n";
@@ -194,6 +200,8 @@ std::string Report(const std::vector<SceneResult>& results) {
   s += Format("  false fusions: %d [0]; false loops: %d\n", ff, fl);
   s += Format("  median seconds of flight from the first overlap to the fusion: %.1f [<= 5]\n", Median(to_fusion));
   s += "  revisiting agents with at least one loop: " + Percent(rev_loop, rev) + " [all]\n";
+  s += "  revisiting agents whose revisit the map holds once (a true revisit link): " + Percent(rev_joined, rev) +
+       Format("; false revisit links: %d\n", false_links);
   s += "  scenes whose fused maps are at least as accurate as their agents' VO: " + Percent(good_ate, fused_scenes) +
        " [>= 90 %]\n";
   s += "  scenes whose fused maps agree in scale within 2 %: " + Percent(good_scale, fused_scenes) + "\n";

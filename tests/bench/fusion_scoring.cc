@@ -16,6 +16,10 @@
 namespace ccm::bench {
 namespace {
 
+// Keyframes whose ground-truth views share less than this (of the smaller one) saw nothing
+// in common.
+constexpr double kMinViewShare = 0.05;
+
 double Seconds(const sim::Simulation& sim, int64_t stamp_ns) {
   return static_cast<double>(stamp_ns - sim.scenario().start_stamp_ns) * 1e-9;
 }
@@ -79,7 +83,7 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
   c.view_share = std::min(o.share_a, o.share_b);
   const auto scale_q = LocalVoScale(r.agents[qa], *qs), scale_c = LocalVoScale(r.agents[ca], *cs);
   if (scale_q && scale_c) c.scale_error = e.query_from_candidate.scale() * *scale_q / *scale_c - 1.0;
-  c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.view_share < 0.05;
+  c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.view_share < kMinViewShare;
   return c;
 }
 
@@ -141,6 +145,27 @@ MapScore ScoreMap(const MapSummary& m, const report::RunResult& r, const std::ve
   return s;
 }
 
+// Splits the agent's revisit links by ground truth (see AgentScore).
+void ScoreRevisitLinks(const sim::Simulation& sim, const sim::OverlapTruth& truth, int agent,
+                       const report::AgentRunResult& a, AgentScore* score) {
+  const double gap_s = truth.options().revisit_gap_s;
+  for (const RevisitLink& l : a.revisit_links) {
+    const double te = Seconds(sim, l.early_ns), tl = Seconds(sim, l.late_ns);
+    if (tl - te < gap_s) continue;
+    const auto& t = sim.trajectory(agent);
+    // Lenient ray limits (a point can be matched across 90 deg and 10x range, far walls in a
+    // yard are): a link is false only if the two views cannot have seen the same surface.
+    const sim::ViewOverlap o = truth.Compare(truth.Sample(sim, t.WorldFromCam(te), te),
+                                             truth.Sample(sim, t.WorldFromCam(tl), tl), 90.0, 10.0);
+    if (std::min(o.share_a, o.share_b) > 0.0) {
+      ++score->true_revisit_links;
+    } else {
+      ++score->false_revisit_links;
+    }
+  }
+  score->revisit_joined = score->true_revisit_links > 0;
+}
+
 }  // namespace
 
 SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth, const report::RunResult& r) {
@@ -157,6 +182,7 @@ SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth
     ScoreSegments(a, &as);
     if (as.vo_ate_m >= 0 && as.path_m > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / as.path_m;
     as.revisits = truth.agents()[i].revisits;
+    ScoreRevisitLinks(sim, truth, static_cast<int>(i), a, &as);
     s.agents.push_back(as);
   }
   // Fusions and loops, in the order the server made them; which pairs they joined.

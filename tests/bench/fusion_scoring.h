@@ -62,6 +62,13 @@ struct AgentScore {
   double vo_scale_drift = -1.0, vo_first_window_scale = -1.0;
   bool revisits = false;
   int loops = 0;                     ///< loops the server closed on its keyframes
+  /// Pairs of its own keyframes >= the truth's revisit gap apart that share points in a server
+  /// map (RevisitLink), split by ground truth: true ones saw a common place, false ones did not
+  /// (a wrong association). A revisit is joined when a true link exists: the map holds the
+  /// place once, by a loop or because the agent tracked its earlier points (a loop is only
+  /// looked for between keyframes that share nothing yet).
+  int true_revisit_links = 0, false_revisit_links = 0;
+  bool revisit_joined = false;
 };
 
 struct SceneScore {

@@ -47,6 +47,9 @@ def totals(scenes):
             t["agents"] += 1
             t["rev"] += a["revisits"]
             t["rev_loop"] += a["revisits"] and a["loops"] > 0
+            # Older results.jsonl files have no revisit links: counted as not joined.
+            t["rev_joined"] += a["revisits"] and a.get("revisit_joined", False)
+            t["false_links"] += a.get("false_revisit_links", 0)
             t["good_vo"] += 0 <= a["ate_path_pct"] <= 1.0 and a["tracked"] > 0.9
             t["tracked_full"] += a["tracked"] >= 0.99
         fused = [m for m in s.get("maps", []) if len(m["agents"]) > 1 and m["joint_ate_m"] >= 0 and m["mean_standalone_ate_m"] > 0]
@@ -72,6 +75,8 @@ def print_totals(title, scenes):
     print(f"  false fusions: {t['ff']} [0]; false loops: {t['fl']}")
     print(f"  median seconds of flight from the first overlap to the fusion: {med(to_fusion)} [<= 5]")
     print(f"  revisiting agents with at least one loop: {pct(t['rev_loop'], t['rev'])} [all]")
+    print(f"  revisiting agents whose revisit the map holds once (a true revisit link): "
+          f"{pct(t['rev_joined'], t['rev'])}; false revisit links: {t['false_links']}")
     print(f"  scenes whose fused maps are at least as accurate as their agents' VO: "
           f"{pct(t['good_ate'], t['fused_scenes'])} [>= 90 %] (worst joint / VO ATE per scene: median {med(ratios)})")
     print(f"  scenes whose fused maps agree in scale within 2 %: {pct(t['good_scale'], t['fused_scenes'])}"

@@ -61,10 +61,15 @@ SampledView OverlapTruth::Sample(const Simulation& sim, const SE3& world_from_ca
 }
 
 ViewOverlap OverlapTruth::Compare(const SampledView& a, const SampledView& b) const {
+  return Compare(a, b, options_.max_ray_angle_deg, options_.max_range_ratio);
+}
+
+ViewOverlap OverlapTruth::Compare(const SampledView& a, const SampledView& b, double max_ray_angle_deg,
+                                  double max_range_ratio) const {
   ViewOverlap o;
   if (a.rays == 0 || b.rays == 0) return o;
-  const float cos_max = static_cast<float>(std::cos(options_.max_ray_angle_deg * M_PI / 180.0));
-  const float ratio = static_cast<float>(options_.max_range_ratio);
+  const float cos_max = static_cast<float>(std::cos(max_ray_angle_deg * M_PI / 180.0));
+  const float ratio = static_cast<float>(max_range_ratio);
   int rays_a = 0, rays_b = 0;
   std::vector<double> angles;
   for (size_t i = 0, j = 0; i < a.cells.size() && j < b.cells.size();) {

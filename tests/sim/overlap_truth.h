@@ -71,10 +71,14 @@ class OverlapTruth {
 
   const std::vector<PairTruth>& pairs() const { return pairs_; }
   const std::vector<AgentTruth>& agents() const { return agents_; }
+  const OverlapTruthOptions& options() const { return options_; }
   const PairTruth& pair(int a, int b) const;
   /// Samples one view of the simulation's world (e.g. a keyframe's ground-truth pose).
   SampledView Sample(const Simulation& sim, const SE3& world_from_cam, double time_s) const;
   ViewOverlap Compare(const SampledView& a, const SampledView& b) const;
+  /// The same with other limits on the rays to a shared cell (e.g. lenient ones to tell
+  /// whether two views can have seen the same points at all).
+  ViewOverlap Compare(const SampledView& a, const SampledView& b, double max_ray_angle_deg, double max_range_ratio) const;
 
  private:
   OverlapTruthOptions options_;

@@ -342,6 +342,7 @@ RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const Play
     r.vo_segments = a.vo_segments;
     r.relocalizations = a.relocalizations;
     r.server_keyframes = maps.AgentTrajectory(a.id);
+    r.revisit_links = maps.AgentRevisitLinks(a.id, report::kRevisitLinkGapNs, report::kRevisitLinkMinPoints);
     result.agents.push_back(std::move(r));
   }
   result.events = maps.events;

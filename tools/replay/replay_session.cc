@@ -143,6 +143,7 @@ class Session {
       std::sort(ar.vo_keyframes.begin(), ar.vo_keyframes.end(), by_stamp);
       for (auto& [segment, t] : ar.vo_segments) std::sort(t.begin(), t.end(), by_stamp);
       ar.server_keyframes = maps.AgentTrajectory(a->input.id);
+      ar.revisit_links = maps.AgentRevisitLinks(a->input.id, report::kRevisitLinkGapNs, report::kRevisitLinkMinPoints);
       if (!a->input.source->error().empty() && r->error.empty()) r->error = a->input.name + ": " + a->input.source->error();
       r->agents.push_back(std::move(ar));
     }

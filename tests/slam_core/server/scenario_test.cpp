@@ -3,11 +3,14 @@
 // records the agents' batches for the ServerRecording tests (ctest fixture).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 
 #include "slam_core/eval/alignment.h"
 #include "slam_core/eval/metrics.h"
+#include "tests/sim/overlap_truth.h"
 #include "tests/slam_core/server/server_test_util.h"
 #include "tools/replay/batch_recording.h"
 #include "server_runtime/run_report.h"
@@ -71,6 +74,26 @@ TEST(ServerScenario, Hall3ThreeAgentsFuseCloseLoopsAndBeatStandalone) {
   std::map<AgentId, int> loops;
   for (const ServerEvent& e : r.events) loops[e.agent] += e.kind == ServerEvent::Kind::kLoop;
   for (int a = 1; a <= 3; ++a) EXPECT_GE(loops[static_cast<AgentId>(a)], 1) << "no loop closed for agent " << a;
+  // Every agent flies its loop again: the map must hold each revisited place once (own
+  // keyframes far apart in time that share points), and only where the two views can have
+  // seen the same surface (simulator ray casts; lenient ray limits, as bench_fusion's check).
+  const sim::OverlapTruth truth = sim::OverlapTruth::Compute(*sim);
+  for (size_t i = 0; i < r.agents.size(); ++i) {
+    const report::AgentRunResult& a = r.agents[i];
+    EXPECT_FALSE(a.revisit_links.empty()) << a.name << ": no revisited place is joined in the map";
+    int unrelated = 0;
+    for (const RevisitLink& l : a.revisit_links) {
+      EXPECT_GE(l.late_ns - l.early_ns, report::kRevisitLinkGapNs);
+      EXPECT_GE(l.shared_points, report::kRevisitLinkMinPoints);
+      const double te = (l.early_ns - sim->scenario().start_stamp_ns) * 1e-9;
+      const double tl = (l.late_ns - sim->scenario().start_stamp_ns) * 1e-9;
+      const auto& t = sim->trajectory(static_cast<int>(i));
+      const sim::ViewOverlap o = truth.Compare(truth.Sample(*sim, t.WorldFromCam(te), te),
+                                               truth.Sample(*sim, t.WorldFromCam(tl), tl), 90.0, 10.0);
+      unrelated += std::min(o.share_a, o.share_b) <= 0.0;
+    }
+    EXPECT_EQ(unrelated, 0) << a.name << ": keyframes joined whose views share no surface";
+  }
 }
 
 TEST(ServerScenario, RepeatedReplayClosesNoAliasedLoop) {
