@@ -90,11 +90,11 @@ std::string SceneBlock(const SceneResult& r, bool events) {
   }
   for (const AgentScore& a : sc.agents) {
     s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m), scale drift %.0f %% "
-                "(first 5 m at %.2f)%s, %d loop(s), revisit links %d (%d false)\n",
+                "(first 5 m at %.2f)%s, %d loop(s), revisit links %d (%d false), %zu server keyframes (%zu anchored)\n",
                 a.name.c_str(), 100.0 * a.tracked_share, a.segments, static_cast<long long>(a.relocalizations),
                 a.vo_ate_m, a.vo_ate_path_pct, a.path_m, 100.0 * a.vo_scale_drift, a.vo_first_window_scale,
                 a.revisits ? (a.revisit_joined ? ", revisits (joined)" : ", revisits (not joined)") : "", a.loops,
-                a.true_revisit_links, a.false_revisit_links);
+                a.true_revisit_links, a.false_revisit_links, a.server_keyframes, a.anchored_keyframes);
   }
   return s;
 }

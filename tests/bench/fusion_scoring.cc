@@ -183,6 +183,8 @@ SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth
     if (as.vo_ate_m >= 0 && as.path_m > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / as.path_m;
     as.revisits = truth.agents()[i].revisits;
     ScoreRevisitLinks(sim, truth, static_cast<int>(i), a, &as);
+    as.server_keyframes = a.server_keyframes.size();
+    for (const ServerKeyframePose& p : a.server_keyframes) as.anchored_keyframes += !p.in_map;
     s.agents.push_back(as);
   }
   // Fusions and loops, in the order the server made them; which pairs they joined.

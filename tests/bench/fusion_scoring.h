@@ -69,6 +69,7 @@ struct AgentScore {
   /// looked for between keyframes that share nothing yet).
   int true_revisit_links = 0, false_revisit_links = 0;
   bool revisit_joined = false;
+  size_t server_keyframes = 0, anchored_keyframes = 0;  ///< registered on the server / of those anchored
 };
 
 struct SceneScore {
