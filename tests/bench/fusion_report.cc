@@ -36,9 +36,9 @@ std::string PairLine(const PairScore& p) {
 }
 
 std::string EventLine(const char* kind, const DetectionCheck& c) {
-  return Format("  %s %u/%u: rotation error %.1f deg, direction error %.1f deg, scale error %+.1f %%, view share %.2f%s; %s\n",
+  return Format("  %s %u/%u: rotation error %.1f deg, direction error %.1f deg, scale error %+.1f %%, view share %.2f (window %.2f)%s; %s\n",
                 kind, c.event.query.agent(), c.event.candidate.agent(), c.rotation_error_deg, c.direction_error_deg,
-                100.0 * c.scale_error, c.view_share, c.wrong ? " WRONG" : "", c.event.detail.c_str());
+                100.0 * c.scale_error, c.view_share, c.window_view_share, c.wrong ? " WRONG" : "", c.event.detail.c_str());
 }
 
 }  // namespace
@@ -83,9 +83,9 @@ std::string SceneBlock(const SceneResult& r, bool events) {
   }
   for (const DetectionCheck& c : sc.fusions) {
     if (c.wrong && !events) {
-      s += Format("  WRONG fusion: agents %u/%u, rotation error %.1f deg, direction error %.1f deg, view share %.2f\n",
+      s += Format("  WRONG fusion: agents %u/%u, rotation error %.1f deg, direction error %.1f deg, view share %.2f (window %.2f)\n",
                   c.event.query.agent(), c.event.candidate.agent(), c.rotation_error_deg, c.direction_error_deg,
-                  c.view_share);
+                  c.view_share, c.window_view_share);
     }
   }
   for (const AgentScore& a : sc.agents) {
@@ -117,7 +117,7 @@ nlohmann::json SceneJson(const SceneResult& r) {
       j[list == &sc.fusions ? "fusions" : "loops"].push_back(
           {{"query_agent", c.event.query.agent()}, {"candidate_agent", c.event.candidate.agent()},
            {"rotation_error_deg", c.rotation_error_deg}, {"direction_error_deg", c.direction_error_deg},
-           {"view_share", c.view_share}, {"wrong", c.wrong}});
+           {"view_share", c.view_share}, {"window_view_share", c.window_view_share}, {"wrong", c.wrong}});
     }
   }
   for (const MapScore& m : sc.maps) {

@@ -79,11 +79,19 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
     const double cosine = std::clamp(t_true.normalized().dot(t_est.normalized()), -1.0, 1.0);
     c.direction_error_deg = std::acos(cosine) * 180.0 / M_PI;
   }
-  const sim::ViewOverlap o = truth.Compare(truth.Sample(sim, gq, tq), truth.Sample(sim, gc, tc));
+  const sim::SampledView vq = truth.Sample(sim, gq, tq);
+  const sim::ViewOverlap o = truth.Compare(vq, truth.Sample(sim, gc, tc));
   c.view_share = std::min(o.share_a, o.share_b);
+  c.window_view_share = c.view_share;
+  const auto& traj_c = sim.trajectory(ca);
+  for (double dt = -2.0; dt <= 2.0 + 1e-9; dt += 0.5) {
+    const double t = std::clamp(tc + dt, 0.0, traj_c.duration_s());
+    const sim::ViewOverlap w = truth.Compare(vq, truth.Sample(sim, traj_c.WorldFromCam(t), t));
+    c.window_view_share = std::max(c.window_view_share, std::min(w.share_a, w.share_b));
+  }
   const auto scale_q = LocalVoScale(r.agents[qa], *qs), scale_c = LocalVoScale(r.agents[ca], *cs);
   if (scale_q && scale_c) c.scale_error = e.query_from_candidate.scale() * *scale_q / *scale_c - 1.0;
-  c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.view_share < kMinViewShare;
+  c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.window_view_share < kMinViewShare;
   return c;
 }
 

@@ -29,11 +29,16 @@ struct DetectionCheck {
   double rotation_error_deg = 0.0;
   double direction_error_deg = 0.0;  ///< of the translation, when the keyframes are >= 0.3 m apart
   double view_share = 0.0;           ///< ground-truth co-visibility of the two keyframes (min share)
+  /// The same against the candidate's neighbourhood: the best share over the candidate
+  /// agent's views within 2 s of the candidate keyframe. A fusion is verified against the
+  /// candidate and its covisible window (PlaceMatchingOptions::candidate_window), so the
+  /// query may have seen the place mostly through the candidate's neighbours.
+  double window_view_share = 0.0;
   /// The similarity's scale against the ratio of the two agents' VO scales around the two
   /// keyframes (est / true - 1; NaN where a VO segment is too short). Exact for maps that no
   /// earlier fusion or loop rescaled, an indication otherwise.
   double scale_error = std::numeric_limits<double>::quiet_NaN();
-  bool wrong = false;                ///< rotation > 10 deg, direction > 30 deg, or nothing in common
+  bool wrong = false;                ///< rotation > 10 deg, direction > 30 deg, or window_view_share < 5 %
 };
 
 struct MapScore {
