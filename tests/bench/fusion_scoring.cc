@@ -161,11 +161,7 @@ void ScoreRevisitLinks(const sim::Simulation& sim, const sim::OverlapTruth& trut
     const double te = Seconds(sim, l.early_ns), tl = Seconds(sim, l.late_ns);
     if (tl - te < gap_s) continue;
     const auto& t = sim.trajectory(agent);
-    // Lenient ray limits (a point can be matched across 90 deg and 10x range, far walls in a
-    // yard are): a link is false only if the two views cannot have seen the same surface.
-    const sim::ViewOverlap o = truth.Compare(truth.Sample(sim, t.WorldFromCam(te), te),
-                                             truth.Sample(sim, t.WorldFromCam(tl), tl), 90.0, 10.0);
-    if (std::min(o.share_a, o.share_b) > 0.0) {
+    if (truth.MayShareSurface(truth.Sample(sim, t.WorldFromCam(te), te), truth.Sample(sim, t.WorldFromCam(tl), tl))) {
       ++score->true_revisit_links;
     } else {
       ++score->false_revisit_links;

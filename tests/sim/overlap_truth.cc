@@ -64,6 +64,11 @@ ViewOverlap OverlapTruth::Compare(const SampledView& a, const SampledView& b) co
   return Compare(a, b, options_.max_ray_angle_deg, options_.max_range_ratio);
 }
 
+bool OverlapTruth::MayShareSurface(const SampledView& a, const SampledView& b) const {
+  const ViewOverlap o = Compare(a, b, 90.0, 10.0);
+  return std::min(o.share_a, o.share_b) > 0.0;
+}
+
 ViewOverlap OverlapTruth::Compare(const SampledView& a, const SampledView& b, double max_ray_angle_deg,
                                   double max_range_ratio) const {
   ViewOverlap o;

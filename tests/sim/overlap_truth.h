@@ -76,9 +76,12 @@ class OverlapTruth {
   /// Samples one view of the simulation's world (e.g. a keyframe's ground-truth pose).
   SampledView Sample(const Simulation& sim, const SE3& world_from_cam, double time_s) const;
   ViewOverlap Compare(const SampledView& a, const SampledView& b) const;
-  /// The same with other limits on the rays to a shared cell (e.g. lenient ones to tell
-  /// whether two views can have seen the same points at all).
+  /// The same with other limits on the rays to a shared cell.
   ViewOverlap Compare(const SampledView& a, const SampledView& b, double max_ray_angle_deg, double max_range_ratio) const;
+  /// Whether two views can have seen the same surface at all: any shared cell under lenient
+  /// ray limits (a point can be matched across 90 deg and 10x range; far walls in a yard
+  /// are). False means map points both views share are wrong associations.
+  bool MayShareSurface(const SampledView& a, const SampledView& b) const;
 
  private:
   OverlapTruthOptions options_;

@@ -76,7 +76,7 @@ TEST(ServerScenario, Hall3ThreeAgentsFuseCloseLoopsAndBeatStandalone) {
   for (int a = 1; a <= 3; ++a) EXPECT_GE(loops[static_cast<AgentId>(a)], 1) << "no loop closed for agent " << a;
   // Every agent flies its loop again: the map must hold each revisited place once (own
   // keyframes far apart in time that share points), and only where the two views can have
-  // seen the same surface (simulator ray casts; lenient ray limits, as bench_fusion's check).
+  // seen the same surface (simulator ray casts, as bench_fusion's check).
   const sim::OverlapTruth truth = sim::OverlapTruth::Compute(*sim);
   for (size_t i = 0; i < r.agents.size(); ++i) {
     const report::AgentRunResult& a = r.agents[i];
@@ -88,9 +88,8 @@ TEST(ServerScenario, Hall3ThreeAgentsFuseCloseLoopsAndBeatStandalone) {
       const double te = (l.early_ns - sim->scenario().start_stamp_ns) * 1e-9;
       const double tl = (l.late_ns - sim->scenario().start_stamp_ns) * 1e-9;
       const auto& t = sim->trajectory(static_cast<int>(i));
-      const sim::ViewOverlap o = truth.Compare(truth.Sample(*sim, t.WorldFromCam(te), te),
-                                               truth.Sample(*sim, t.WorldFromCam(tl), tl), 90.0, 10.0);
-      unrelated += std::min(o.share_a, o.share_b) <= 0.0;
+      unrelated += !truth.MayShareSurface(truth.Sample(*sim, t.WorldFromCam(te), te),
+                                          truth.Sample(*sim, t.WorldFromCam(tl), tl));
     }
     EXPECT_EQ(unrelated, 0) << a.name << ": keyframes joined whose views share no surface";
   }
