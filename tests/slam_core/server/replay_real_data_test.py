@@ -23,16 +23,17 @@ import time
 # today the joint ATE in % of the fused map's path and the scale ratio between the parts.
 CASES = {
     # Two cars on the same road, 40 frames (~23 m) apart in time; real driving (KITTI 07).
-    # Measured: tracked 94 / 97 %, VO 0.55 / 0.29-0.31 %, 1 map, fused on agent 2's 9th
-    # frame, joint ATE 0.36-0.38 m = 0.30-0.32 %, scale ratio 1.024-1.026.
+    # Measured: tracked 94 / 97 %, VO 0.58 / 0.32 %, 1 map, fused on agent 2's 9th
+    # frame, joint ATE 0.33 m = 0.28 % (2026-11-27: 0.36-0.38 m), scale ratio 1.018 (was
+    # 1.024-1.026); the bound is the issue's 2 % goal with room for run-to-run spread.
     "kitti07": dict(folder="kitti07_first160", ranges=("0-99", "60-159"), ground_truth="poses_07_first160_kitti.txt",
                     road=True, shared=(60, 99), min_tracked=0.85, max_vo_ate_pct=1.0, fuses=True,
-                    max_joint_ate_pct=0.75, max_scale_ratio=1.10),
+                    max_joint_ate_pct=0.75, max_scale_ratio=1.05),
     # New Tsukuba (photorealistic CG), one hand-held sweep split with 30 shared frames.
-    # Measured: tracked 87 / 98 %, VO 0.10 / 0.20 %, 1 map, joint ATE 0.0077 m = 0.185 %,
-    # scale ratio 1.018.
+    # Measured: tracked 87 / 96 %, VO 0.10 / 0.27 %, 1 map, joint ATE 0.0052 m = 0.13 %
+    # (2026-11-27: 0.0077 m), scale ratio 1.008 (was 1.018).
     "ntsd150": dict(folder="ntsd150_euroc", ranges=("0-89", "60-149"), shared=(60, 89), min_tracked=0.75,
-                    max_vo_ate_pct=1.0, fuses=True, max_joint_ate_pct=0.5, max_scale_ratio=1.10),
+                    max_vo_ate_pct=1.0, fuses=True, max_joint_ate_pct=0.5, max_scale_ratio=1.05),
     # The same sweep with 10 shared frames: the second agent starts as the first one ends.
     # Today the maps do not fuse (fusion candidates stop at BoW matches and RANSAC). The
     # second agent's VO used to initialize while the camera turns and drift 3.5 % of its
