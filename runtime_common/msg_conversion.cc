@@ -10,8 +10,6 @@
 namespace ccm::conv {
 namespace {
 
-std::string Str(size_t v) { return std::to_string(v); }
-
 // 32-bit segment counter of the updates; 0 (rejected by receivers) if it does not fit.
 std::uint32_t SegmentCounter(MapId segment, AgentId agent) {
   if (!segment.valid() || segment.agent() != agent || segment.counter() > std::numeric_limits<std::uint32_t>::max()) {

@@ -10,8 +10,6 @@
 namespace ccm::conv {
 namespace {
 
-std::string Str(size_t v) { return std::to_string(v); }
-
 // ORB's pyramid. The ServerKeyframe value type carries none yet (the agent integrates server
 // keyframes with its own pyramid); raised to cover the largest octave so the receiver's
 // octave check holds.

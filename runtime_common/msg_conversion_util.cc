@@ -9,8 +9,6 @@
 namespace ccm::conv {
 namespace {
 
-std::string Str(size_t v) { return std::to_string(v); }
-
 bool SameIntrinsics(const CameraIntrinsics& a, const CameraIntrinsics& b) {
   return a.type == b.type && a.width_px == b.width_px && a.height_px == b.height_px && a.fx == b.fx &&
          a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;

@@ -23,6 +23,9 @@ class CameraCache;
 /// Limits of the exchange validators, the same as the IDL bounds.
 inline const AgentDataLimits kLimits{msg::kMaxKeypoints, msg::kMaxObservations, 1e6};
 
+/// A count as text, for rejection messages.
+inline std::string Str(size_t v) { return std::to_string(v); }
+
 /// Sets *error to "<kind>: <what>" and returns nullopt.
 template <typename T>
 std::optional<T> Reject(std::string* error, const char* kind, const std::string& what) {

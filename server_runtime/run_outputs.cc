@@ -15,14 +15,6 @@ nlohmann::json StatsJson(const ErrorStats& s) {
   return {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"max", s.max}, {"count", s.count}};
 }
 
-Trajectory InMap(const std::vector<ServerKeyframePose>& kfs, MapId map) {
-  Trajectory t;
-  for (const auto& k : kfs) {
-    if (k.map == map) t.push_back({k.stamp_ns, k.world_from_cam});
-  }
-  return t;
-}
-
 const AgentRunResult* FindAgent(const RunResult& result, AgentId id) {
   for (const AgentRunResult& a : result.agents) {
     if (a.id == id) return &a;
@@ -172,7 +164,7 @@ bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunE
   for (const AgentRunResult& a : result.agents) {
     // The largest map under the agent's name alone: the files scripts read before every map
     // was written (empty when the agent is not in that map).
-    if (!WriteTum(dir + "/" + a.name + "_keyframes.tum", InMap(a.server_keyframes, ev.final_map), error)) return false;
+    if (!WriteTum(dir + "/" + a.name + "_keyframes.tum", KeyframesInMap(a.server_keyframes, ev.final_map), error)) return false;
     if (!a.ground_truth.empty() && !WriteTum(dir + "/" + a.name + "_ground_truth.tum", a.ground_truth, error)) {
       return false;
     }
@@ -182,7 +174,7 @@ bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunE
       const AgentRunResult* a = FindAgent(result, part.id);
       if (!a || part.keyframes == 0) continue;
       const std::string path = dir + "/" + MapTrajectoryFile(ms.summary.id, a->name);
-      if (!WriteTum(path, InMap(a->server_keyframes, ms.summary.id), error)) return false;
+      if (!WriteTum(path, KeyframesInMap(a->server_keyframes, ms.summary.id), error)) return false;
     }
     if (!WriteMapPly(dir + "/" + MapPlyFile(ev, ms.summary.id), maps, ms.summary.id, error)) return false;
   }

@@ -13,14 +13,6 @@ std::vector<SE3> Poses(const Trajectory& t) {
   return out;
 }
 
-Trajectory InMap(const std::vector<ServerKeyframePose>& kfs, MapId map) {
-  Trajectory t;
-  for (const auto& k : kfs) {
-    if (k.map == map) t.push_back({k.stamp_ns, k.world_from_cam});
-  }
-  return t;
-}
-
 // Ground-truth path between two stamps: what the part of a flight that a map holds covered.
 double PathBetween(const Trajectory& gt, int64_t from_ns, int64_t to_ns) {
   std::vector<SE3> poses;
@@ -35,7 +27,7 @@ MapScore ScoreMap(const RunResult& result, const MapSummary& summary) {
   ms.summary = summary;
   std::vector<AgentInput> joint;
   for (const AgentRunResult& a : result.agents) {
-    const Trajectory t = InMap(a.server_keyframes, summary.id);
+    const Trajectory t = KeyframesInMap(a.server_keyframes, summary.id);
     if (t.empty() && !summary.agents.count(a.id)) continue;
     AgentInMap part;
     part.name = a.name;
@@ -74,6 +66,14 @@ MapScore ScoreMap(const RunResult& result, const MapSummary& summary) {
 
 }  // namespace
 
+Trajectory KeyframesInMap(const std::vector<ServerKeyframePose>& kfs, MapId map) {
+  Trajectory t;
+  for (const auto& k : kfs) {
+    if (k.map == map) t.push_back({k.stamp_ns, k.world_from_cam});
+  }
+  return t;
+}
+
 std::string MapTrajectoryFile(MapId map, const std::string& agent) {
   return "map" + std::to_string(map.counter()) + "_" + agent + "_keyframes.tum";
 }
@@ -101,7 +101,7 @@ RunEvaluation EvaluateRun(const RunResult& result) {
     s.id = a.id;
     s.path_m = PathLengthM(Poses(a.ground_truth));
     s.vo_keyframes = a.vo_keyframes.size();
-    s.server_keyframes = InMap(a.server_keyframes, ev.final_map).size();
+    s.server_keyframes = KeyframesInMap(a.server_keyframes, ev.final_map).size();
     ev.joint_path_m += s.path_m;
     if (!a.ground_truth.empty()) {
       ev.has_ground_truth = true;

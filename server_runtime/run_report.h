@@ -104,6 +104,8 @@ RunEvaluation EvaluateRun(const RunResult& result);
 /// and a map's PLY ("map.ply" for the largest map, "map<k>.ply" for the others).
 std::string MapTrajectoryFile(MapId map, const std::string& agent);
 std::string MapPlyFile(const RunEvaluation& evaluation, MapId map);
+/// The keyframes of `kfs` that the server holds in map `map`, as a trajectory.
+Trajectory KeyframesInMap(const std::vector<ServerKeyframePose>& kfs, MapId map);
 
 /// Writes into `dir`: map<k>_<agent>_keyframes.tum for every map and agent in it,
 /// <agent>_keyframes.tum (largest map, as before maps were listed), <agent>_ground_truth.tum,

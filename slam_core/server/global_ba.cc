@@ -3,13 +3,13 @@
 #include <chrono>
 #include <unordered_map>
 
+#include "slam_core/common/stopwatch.h"
 #include "slam_core/optimization/bundle_adjustment.h"
 
 namespace ccm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 struct Snapshot {
   opt::BundleProblem problem;
@@ -91,7 +91,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     }
     snap = TakeSnapshot(*smap, options.min_observations);
   }
-  r.snapshot_s = Since(t0);
+  r.snapshot_s = SecondsSince(t0);
   r.keyframes = static_cast<int>(snap.kf_ids.size());
   r.points = static_cast<int>(snap.point_ids.size());
   r.observations = static_cast<int>(snap.problem.observations.size());
@@ -124,7 +124,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   ba.num_threads = options.threads;
   ba.abort = abort;
   const opt::OptimizationSummary s = opt::BundleAdjust(&snap.problem, ba);
-  r.solve_s = Since(t0);
+  r.solve_s = SecondsSince(t0);
   r.iterations = s.iterations;
   r.message = s.message;
   if (!s.usable) {
@@ -168,7 +168,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   for (const auto& [kf, mp] : gross) map.EraseObservation(kf, mp);
   smap->MarkSettled(settled);
   smap->BumpGeneration();
-  r.write_back_s = Since(t0);
+  r.write_back_s = SecondsSince(t0);
   r.outcome = GlobalBaReport::Outcome::kApplied;
   return r;
 }

@@ -5,6 +5,7 @@
 #include <set>
 #include <unordered_set>
 
+#include "slam_core/common/stopwatch.h"
 #include "slam_core/map_ops/point_fusion.h"
 #include "slam_core/server/map_correction.h"
 
@@ -12,7 +13,6 @@ namespace ccm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 constexpr double kLoopFusionRadiusPx = 4.0;  // ORB-SLAM's SearchAndFuse radius for loops
 
@@ -146,7 +146,7 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
   // the caller holds new ones back until the loop is applied.
   EssentialGraphProblem graph = BuildEssentialGraphProblem(map, corr);
   smap->BumpGeneration();
-  r.locked_s = Since(t_locked);
+  r.locked_s = SecondsSince(t_locked);
   lock.unlock();
 
   opt::PoseGraphOptions pg;
@@ -183,8 +183,8 @@ LoopReport CloseLoop(MapStack* stack, const PlaceDetection& d, const ServerOptio
   smap->MarkSettled(all);
   smap->BumpGeneration();
   r.closed = true;
-  r.locked_s += Since(t_locked);
-  r.seconds = Since(t0);
+  r.locked_s += SecondsSince(t_locked);
+  r.seconds = SecondsSince(t0);
   return r;
 }
 

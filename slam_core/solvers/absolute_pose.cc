@@ -12,20 +12,20 @@
 namespace ccm::solvers {
 namespace {
 
-using Problem = opengv::sac_problems::absolute_pose::AbsolutePoseSacProblem;
+using AbsoluteProblem = opengv::sac_problems::absolute_pose::AbsolutePoseSacProblem;
 
-Problem::algorithm_t ToOpenGv(AbsolutePoseAlgorithm a) {
+AbsoluteProblem::algorithm_t ToOpenGv(AbsolutePoseAlgorithm a) {
   switch (a) {
-    case AbsolutePoseAlgorithm::kKneipP3P: return Problem::KNEIP;
-    case AbsolutePoseAlgorithm::kGaoP3P: return Problem::GAO;
+    case AbsolutePoseAlgorithm::kKneipP3P: return AbsoluteProblem::KNEIP;
+    case AbsolutePoseAlgorithm::kGaoP3P: return AbsoluteProblem::GAO;
   }
-  return Problem::KNEIP;
+  return AbsoluteProblem::KNEIP;
 }
 
 // OpenGV's nonlinear refinement on the inliers, then re-selection (its residual 1 - cos
 // compares signed rays, so points behind the camera never come back). The refined model
 // is kept unless it loses more than 10 % of the inliers (a bad local minimum).
-void RefineAndReselect(Problem* problem, double threshold, opengv::transformation_t* model,
+void RefineAndReselect(AbsoluteProblem* problem, double threshold, opengv::transformation_t* model,
                        std::vector<int>* inliers) {
   for (int round = 0; round < 2; ++round) {
     opengv::transformation_t refined;
@@ -63,7 +63,7 @@ AbsolutePoseResult EstimateAbsolutePose(const std::vector<Eigen::Vector3d>& bear
   const opengv::bearingVectors_t f = internal::ToOpenGv(bearings);
   const opengv::points_t p(points_world.begin(), points_world.end());
   opengv::absolute_pose::CentralAbsoluteAdapter adapter(f, p);
-  auto problem = std::make_shared<Problem>(adapter, ToOpenGv(options.algorithm), false);
+  auto problem = std::make_shared<AbsoluteProblem>(adapter, ToOpenGv(options.algorithm), false);
   const int needed = std::max(problem->getSampleSize(), options.min_inliers);
   if (n < needed) {
     result.status = SolverStatus::kTooFewPoints;
@@ -72,7 +72,7 @@ AbsolutePoseResult EstimateAbsolutePose(const std::vector<Eigen::Vector3d>& bear
   }
   internal::SeedOpenGvProblem(problem.get(), options.ransac.seed);
 
-  opengv::sac::Ransac<Problem> ransac;
+  opengv::sac::Ransac<AbsoluteProblem> ransac;
   ransac.sac_model_ = problem;
   ransac.threshold_ = internal::OneMinusCos(options.ransac.ThresholdAngleRad());
   ransac.max_iterations_ = options.ransac.max_iterations;

@@ -10,7 +10,7 @@
 namespace ccm::solvers {
 namespace {
 
-constexpr int kSampleSize = 4;
+constexpr int kHomographySample = 4;
 constexpr double kHugeError = 1e12;
 
 // Hartley normalization: centroid to origin, mean distance sqrt(2).
@@ -39,7 +39,7 @@ bool SolveDlt(const std::vector<Eigen::Vector2d>& x1, const std::vector<Eigen::V
     A.row(2 * k + 1) << q.z() * p.transpose(), 0, 0, 0, -q.x() * p.transpose();
   }
   Eigen::Matrix<double, 9, 1> h;
-  if (idx.size() == kSampleSize) {
+  if (idx.size() == kHomographySample) {
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
     if (svd.singularValues()(7) < 1e-9 * svd.singularValues()(0)) return false;
     h = svd.matrixV().col(8);
@@ -101,11 +101,11 @@ int RunRansac(const PlaneData& d, double threshold, const RansacOptions& ro, Eig
               std::vector<bool>* best_mask, int* iterations) {
   const int nv = static_cast<int>(d.valid_idx.size());
   std::mt19937_64 rng(ro.seed);
-  std::vector<int> scratch, sample(kSampleSize);
+  std::vector<int> scratch, sample(kHomographySample);
   std::vector<bool> mask;
   int best_count = -1, needed = ro.max_iterations, it = 0;
   for (; it < needed; ++it) {
-    internal::DrawSample(nv, kSampleSize, &rng, &scratch, &sample);
+    internal::DrawSample(nv, kHomographySample, &rng, &scratch, &sample);
     for (int& s : sample) s = d.valid_idx[s];
     Eigen::Matrix3d H;
     if (!SolveDlt(d.x1, d.x2, sample, &H)) continue;
@@ -114,7 +114,7 @@ int RunRansac(const PlaneData& d, double threshold, const RansacOptions& ro, Eig
       best_count = count;
       *best_h = H;
       *best_mask = mask;
-      needed = internal::AdaptiveIterations(double(count) / nv, kSampleSize, ro.confidence, ro.max_iterations);
+      needed = internal::AdaptiveIterations(double(count) / nv, kHomographySample, ro.confidence, ro.max_iterations);
     }
   }
   *iterations = it;
@@ -126,7 +126,7 @@ int RunRansac(const PlaneData& d, double threshold, const RansacOptions& ro, Eig
 std::string HomographyOptions::Validate() const {
   const std::string r = ransac.Validate();
   if (!r.empty()) return r;
-  if (min_inliers < kSampleSize) return "min_inliers must be >= 4";
+  if (min_inliers < kHomographySample) return "min_inliers must be >= 4";
   return "";
 }
 
@@ -152,7 +152,7 @@ HomographyResult EstimateHomography(const std::vector<Eigen::Vector3d>& bearings
   const std::vector<Eigen::Vector2d>&x1 = d.x1, &x2 = d.x2;
   const std::vector<bool>& valid = d.valid;
   const int nv = static_cast<int>(d.valid_idx.size());
-  if (nv < std::max(kSampleSize, options.min_inliers)) {
+  if (nv < std::max(kHomographySample, options.min_inliers)) {
     result.status = SolverStatus::kTooFewPoints;
     result.message = std::to_string(nv) + " forward-facing correspondences are too few";
     return result;
@@ -163,7 +163,7 @@ HomographyResult EstimateHomography(const std::vector<Eigen::Vector3d>& bearings
   int best_count = RunRansac(d, threshold, options.ransac, &result.cam2_H_cam1, &result.inliers, &it);
   std::vector<bool> mask;
   result.iterations = it;
-  if (best_count < kSampleSize) {
+  if (best_count < kHomographySample) {
     result.status = SolverStatus::kRansacFailed;
     result.message = "no homography hypothesis";
     return result;

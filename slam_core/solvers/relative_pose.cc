@@ -16,15 +16,15 @@
 namespace ccm::solvers {
 namespace {
 
-using Problem = opengv::sac_problems::relative_pose::CentralRelativePoseSacProblem;
+using RelativeProblem = opengv::sac_problems::relative_pose::CentralRelativePoseSacProblem;
 
-Problem::algorithm_t ToOpenGv(RelativePoseAlgorithm a) {
+RelativeProblem::algorithm_t ToOpenGv(RelativePoseAlgorithm a) {
   switch (a) {
-    case RelativePoseAlgorithm::kStewenius5pt: return Problem::STEWENIUS;
-    case RelativePoseAlgorithm::kNister5pt: return Problem::NISTER;
-    case RelativePoseAlgorithm::kEightPoint: return Problem::EIGHTPT;
+    case RelativePoseAlgorithm::kStewenius5pt: return RelativeProblem::STEWENIUS;
+    case RelativePoseAlgorithm::kNister5pt: return RelativeProblem::NISTER;
+    case RelativePoseAlgorithm::kEightPoint: return RelativeProblem::EIGHTPT;
   }
-  return Problem::STEWENIUS;
+  return RelativeProblem::STEWENIUS;
 }
 
 // OpenGV's model is cam1_from_cam2 = [R12 | t12] (pose of view 2 in view 1).
@@ -135,11 +135,11 @@ SE3 RefineLm(const SE3& initial, const Bearings& f1, const Bearings& f2, const s
 // OpenGV scores every hypothesis by triangulating all points (the dominant cost at 500
 // correspondences). Hypotheses are scored here with the squared Sampson angle instead,
 // which needs no triangulation; cheirality is checked once at the end (FinalInliers).
-class SampsonScoredProblem : public Problem {
+class SampsonScoredProblem : public RelativeProblem {
  public:
   SampsonScoredProblem(adapter_t& adapter, algorithm_t algorithm, const opengv::bearingVectors_t& f1,
                        const opengv::bearingVectors_t& f2)
-      : Problem(adapter, algorithm, false), f1_(f1), f2_(f2) {}
+      : RelativeProblem(adapter, algorithm, false), f1_(f1), f2_(f2) {}
 
   void getSelectedDistancesToModel(const model_t& model, const std::vector<int>& indices,
                                    std::vector<double>& scores) const override {
@@ -159,7 +159,7 @@ class SampsonScoredProblem : public Problem {
     for (size_t k = 0; k < sampson.size(); ++k) {
       if (sampson[k] < sampson_threshold) candidates.push_back((*indices_)[k]);
     }
-    Problem::getSelectedDistancesToModel(model, candidates, triangulated);
+    RelativeProblem::getSelectedDistancesToModel(model, candidates, triangulated);
     for (size_t k = 0; k < candidates.size(); ++k) {
       if (triangulated[k] < opengv_threshold) inliers.push_back(candidates[k]);
     }

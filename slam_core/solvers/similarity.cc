@@ -9,7 +9,7 @@
 namespace ccm::solvers {
 namespace {
 
-constexpr int kSampleSize = 3;
+constexpr int kSimilaritySample = 3;
 
 // Inlier test of one correspondence under b_from_a (and its precomputed inverse).
 bool IsInlier(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Sim3& b_from_a,
@@ -50,7 +50,7 @@ int RunRansac(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::V
   std::vector<bool> mask;
   int best_count = -1, needed = options.ransac.max_iterations, it = 0;
   for (; it < needed; ++it) {
-    internal::DrawSample(n, kSampleSize, &rng, &scratch, &sample);
+    internal::DrawSample(n, kSimilaritySample, &rng, &scratch, &sample);
     const std::optional<Sim3> S = AlignUmeyama(pa, pb, options.fix_scale, sample);
     if (!S) continue;
     const int count = ScoreModel(pa, pb, *S, options, max_angle, &mask);
@@ -58,7 +58,7 @@ int RunRansac(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::V
       best_count = count;
       *best = *S;
       *best_mask = mask;
-      needed = internal::AdaptiveIterations(double(count) / n, kSampleSize, options.ransac.confidence,
+      needed = internal::AdaptiveIterations(double(count) / n, kSimilaritySample, options.ransac.confidence,
                                             options.ransac.max_iterations);
     }
   }
@@ -114,9 +114,9 @@ Sim3Result EstimateSim3(const std::vector<Eigen::Vector3d>& points_a,
   }
   const int n = static_cast<int>(points_a.size());
   result.inliers.assign(n, false);
-  if (n < std::max(kSampleSize, options.min_inliers)) {
+  if (n < std::max(kSimilaritySample, options.min_inliers)) {
     result.status = SolverStatus::kTooFewPoints;
-    result.message = "need at least " + std::to_string(std::max(kSampleSize, options.min_inliers)) +
+    result.message = "need at least " + std::to_string(std::max(kSimilaritySample, options.min_inliers)) +
                      " correspondences, got " + std::to_string(n);
     return result;
   }
@@ -126,7 +126,7 @@ Sim3Result EstimateSim3(const std::vector<Eigen::Vector3d>& points_a,
   int best_count = RunRansac(points_a, points_b, options, max_angle, &best, &result.inliers, &it);
   std::vector<bool> mask;
   result.iterations = it;
-  if (best_count < kSampleSize) {
+  if (best_count < kSimilaritySample) {
     result.status = best_count < 0 ? SolverStatus::kDegenerate : SolverStatus::kTooFewInliers;
     result.message = best_count < 0 ? "all samples degenerate" : "no consensus";
     return result;

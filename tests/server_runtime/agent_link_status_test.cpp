@@ -8,13 +8,13 @@
 namespace ccm::server {
 namespace {
 
-constexpr AgentId kAgent = 3;
+constexpr AgentId kStatusAgent = 3;
 
 conv::AgentStatusData Status(uint64_t segment_counter) {
   conv::AgentStatusData st;
-  st.agent = kAgent;
-  st.reference_kf = KeyframeId::Make(kAgent, 7);
-  st.segment = MapId::Make(kAgent, segment_counter);
+  st.agent = kStatusAgent;
+  st.reference_kf = KeyframeId::Make(kStatusAgent, 7);
+  st.segment = MapId::Make(kStatusAgent, segment_counter);
   st.kfs_created = 9;
   st.kfs_sent = 8;
   st.kfs_acked = 6;
@@ -26,8 +26,8 @@ TEST(AgentLinkStatus, AHeartbeatSetsTheCountersAndTheCurrentSegment) {
   AgentLink link;
   ApplyStatus(Status(1), &link);
   EXPECT_EQ(link.status_msgs, 1);
-  EXPECT_EQ(link.reference_kf, KeyframeId::Make(kAgent, 7));
-  EXPECT_EQ(link.segment, MapId::Make(kAgent, 1));
+  EXPECT_EQ(link.reference_kf, KeyframeId::Make(kStatusAgent, 7));
+  EXPECT_EQ(link.segment, MapId::Make(kStatusAgent, 1));
   EXPECT_EQ(link.kfs_created, 9u);
   EXPECT_EQ(link.kfs_acked, 6u);
   EXPECT_EQ(link.tracking_state, 2);
@@ -40,7 +40,7 @@ TEST(AgentLinkStatus, FreshSegmentsInEveryHeartbeatListAtMostTheCapAndTheRestIsC
   for (uint64_t i = 1; i <= kHeartbeats; ++i) ApplyStatus(Status(i), &link);
   EXPECT_EQ(link.segments.size(), kMaxSegmentsListed);
   EXPECT_EQ(link.segments_not_listed, static_cast<int64_t>(kHeartbeats - kMaxSegmentsListed));
-  EXPECT_EQ(link.segment, MapId::Make(kAgent, kHeartbeats)) << "the current segment is still the newest";
+  EXPECT_EQ(link.segment, MapId::Make(kStatusAgent, kHeartbeats)) << "the current segment is still the newest";
   ApplyStatus(Status(1), &link);  // a listed one again: not counted as unlisted
   EXPECT_EQ(link.segments_not_listed, static_cast<int64_t>(kHeartbeats - kMaxSegmentsListed));
 }

@@ -12,7 +12,6 @@ namespace {
 
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
-constexpr double kDeg = M_PI / 180.0;
 
 double Wrap(double rad) { return std::atan2(std::sin(rad), std::cos(rad)); }
 

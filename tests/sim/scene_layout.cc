@@ -11,7 +11,6 @@ namespace {
 
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
-constexpr double kDeg = M_PI / 180.0;
 
 double Cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 Vec2 Rotate(const Vec2& v, double rad) {

@@ -6,6 +6,7 @@
 // AddFillerObjects. Not thread-safe; one per generated scene.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -17,6 +18,9 @@
 #include "tests/sim/trajectory.h"
 
 namespace ccm::sim {
+
+/// Degrees to radians (scene layouts and flights are written in degrees).
+inline constexpr double kDeg = M_PI / 180.0;
 
 struct FlightWaypoint {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();

@@ -18,7 +18,7 @@ namespace {
 
 using testing::ChildProcess;
 
-constexpr int kDomain = 189;
+constexpr int kDiscoveryDomain = 189;
 constexpr int kPort = 11947;  // not the default 11811: a real discovery server may run here
 
 // wifi.xml with the client profile pointed at this test's discovery server port.
@@ -41,7 +41,7 @@ TEST(DiscoveryServer, ServerAndAgentMatchThroughTheDiscoveryServerOnly) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string qos = WriteQos(dir);
-  const std::vector<std::string> client = {"--qos", qos, "--domain", std::to_string(kDomain),
+  const std::vector<std::string> client = {"--qos", qos, "--domain", std::to_string(kDiscoveryDomain),
                                            "--participant-profile", "ccm_participant_ds_client"};
   auto with = [&](std::vector<std::string> cmd) {
     cmd.insert(cmd.end(), client.begin(), client.end());

@@ -22,7 +22,7 @@
 namespace ccm {
 namespace {
 
-constexpr int kFrames = 600;              // 30 s of flight at 20 Hz
+constexpr int kFloodFrames = 600;              // 30 s of flight at 20 Hz
 constexpr double kFloodRate = 35.0;       // keyframes/s: hall3's agent makes ~3.4 per second
 constexpr double kFloodSeconds = 35.0;
 constexpr int kFlooderId = 9;
@@ -64,7 +64,7 @@ FloodRun RunWithFlooder(const std::string& name, int domain, bool flood) {
   std::vector<std::vector<std::string>> cmds = {
       {CCM_SERVER, "--idle-exit", "4", "--duration", "240", "--out", dir + "/server", "--qos", wifi, "--log-level",
        "warn"},
-      {CCM_AGENT, "--agent-id", "1", "--sim", "hall3", "--sim-agent", "1", "--max-frames", std::to_string(kFrames),
+      {CCM_AGENT, "--agent-id", "1", "--sim", "hall3", "--sim-agent", "1", "--max-frames", std::to_string(kFloodFrames),
        "--rate", "realtime", "--drain", "60", "--qos", wifi, "--log-level", "warn"}};
   if (flood) {
     cmds.push_back({CCM_FLOODER, "--id", std::to_string(kFlooderId), "--rate", std::to_string(kFloodRate),

@@ -27,7 +27,7 @@ namespace {
 
 using testing::MsgMutator;
 
-constexpr AgentId kAgent = 1;
+constexpr AgentId kFuzzedAgent = 1;
 
 void MutateStatus(MsgMutator& z, msg::AgentStatus* m) {
   switch (z.rng()() % 8) {
@@ -60,10 +60,10 @@ std::string StatusViolation(const msg::AgentStatus& m, const conv::AgentStatusDa
 TEST(AgentStatusFuzz, MutatedHeartbeatsAreRefusedWithAMessageOrAcceptedAsSent) {
   msg::AgentStatus base;
   base.protocol_version(msg::kProtocolVersion);
-  base.agent_id(kAgent);
+  base.agent_id(kFuzzedAgent);
   base.stamp_ns(1'700'000'000'000'000'000);
-  base.ref_kf_id(KeyframeId::Make(kAgent, 40).packed());
-  base.map_segment_id(MapId::Make(kAgent, 1).packed());
+  base.ref_kf_id(KeyframeId::Make(kFuzzedAgent, 40).packed());
+  base.map_segment_id(MapId::Make(kFuzzedAgent, 1).packed());
   base.kfs_created(45), base.kfs_sent(44), base.kfs_acked(40), base.kfs_resent(2), base.mps_sent(3000);
   base.tracking_state(1);
   std::string error;
@@ -127,7 +127,7 @@ TEST(ServerMessageFuzz, MutatedServerMessagesIntoATrackingAgentNeverBreakItsMap)
   sim::SimFrameSource source(sim, 0, 0, 1, 400);
   std::shared_ptr<const CameraModel> camera(MakeCamera(source.intrinsics()));
   AckAll acks;
-  AgentVo vo(kAgent, camera, VoOptions{}, &acks, /*synchronous_mapping=*/true);
+  AgentVo vo(kFuzzedAgent, camera, VoOptions{}, &acks, /*synchronous_mapping=*/true);
   for (int i = 0; i < 60; ++i) vo.TrackFrame(*source.Next());
   const VoChanges changes = vo.TakeChanges();
   ASSERT_TRUE(changes.map && changes.reference_kf.valid());
@@ -158,13 +158,13 @@ TEST(ServerMessageFuzz, MutatedServerMessagesIntoATrackingAgentNeverBreakItsMap)
   }
   for (auto& [id, smp] : points) data.map_points.push_back(smp);
   ASSERT_GT(copied, 1);
-  std::vector<msg::ServerToAgent> base{conv::ToMsg(kAgent, 1, {ref->id()}, {}, &data),
-                                       conv::ToMsg(kAgent, 2, {ref->id()}, {}, nullptr)};
-  const ServerMapData synthetic = testing::MakeServerMapData(kAgent, 5, 500, 300);
-  base.push_back(conv::ToMsg(kAgent, 3, {KeyframeId::Make(kAgent, 1)}, {}, &synthetic));
+  std::vector<msg::ServerToAgent> base{conv::ToMsg(kFuzzedAgent, 1, {ref->id()}, {}, &data),
+                                       conv::ToMsg(kFuzzedAgent, 2, {ref->id()}, {}, nullptr)};
+  const ServerMapData synthetic = testing::MakeServerMapData(kFuzzedAgent, 5, 500, 300);
+  base.push_back(conv::ToMsg(kFuzzedAgent, 3, {KeyframeId::Make(kFuzzedAgent, 1)}, {}, &synthetic));
   conv::CameraCache cameras(8);
   std::string error;
-  for (const auto& m : base) ASSERT_TRUE(conv::FromMsg(m, kAgent, &cameras, &error)) << error;
+  for (const auto& m : base) ASSERT_TRUE(conv::FromMsg(m, kFuzzedAgent, &cameras, &error)) << error;
 
   const int total = testing::FuzzInputs(3000);
   MsgMutator z(20261129);
@@ -175,7 +175,7 @@ TEST(ServerMessageFuzz, MutatedServerMessagesIntoATrackingAgentNeverBreakItsMap)
     error.clear();
     std::optional<conv::ServerMessage> got;
     if (testing::Mutate<msg::ServerToAgentPubSubType>(z, &m, testing::MutateServer)) {
-      got = conv::FromMsg(m, kAgent, &cameras, &error);
+      got = conv::FromMsg(m, kFuzzedAgent, &cameras, &error);
       silent += !got && error.empty();
     }
     if (!got) {

@@ -27,17 +27,17 @@ BowVector PlaceBow(int place, uint64_t seed) {
 }
 
 KeyframeId Kf(AgentId agent, uint64_t n) { return KeyframeId::Make(agent, n); }
-MapId Map(AgentId agent) { return MapId::Make(agent, 1); }
+MapId MapOf(AgentId agent) { return MapId::Make(agent, 1); }
 
 TEST(KeyframeDatabaseTest, InsertQueryErase) {
   KeyframeDatabase db(kWords);
-  for (int p = 0; p < 20; ++p) db.Add(Kf(1, p + 1), Map(1), PlaceBow(p, p));
+  for (int p = 0; p < 20; ++p) db.Add(Kf(1, p + 1), MapOf(1), PlaceBow(p, p));
   EXPECT_EQ(db.size(), 20u);
   const BowVector q = PlaceBow(7, 1234);
   auto results = db.Query(q, {});
   ASSERT_FALSE(results.empty());
   EXPECT_EQ(results[0].keyframe, Kf(1, 8));
-  EXPECT_EQ(results[0].map, Map(1));
+  EXPECT_EQ(results[0].map, MapOf(1));
   EXPECT_EQ(results[0].agent, 1);
   EXPECT_NEAR(results[0].score, ScoreL1(q, PlaceBow(7, 7)), 1e-5);
   for (size_t i = 1; i < results.size(); ++i) EXPECT_GE(results[i - 1].score, results[i].score);
@@ -54,10 +54,10 @@ TEST(KeyframeDatabaseTest, InsertQueryErase) {
   results = db.Query(q, {});
   for (const auto& r : results) EXPECT_NE(r.keyframe, Kf(1, 8));
   // Re-adding reuses the freed slot and is found again.
-  db.Add(Kf(1, 8), Map(1), PlaceBow(7, 7));
+  db.Add(Kf(1, 8), MapOf(1), PlaceBow(7, 7));
   EXPECT_EQ(db.Query(q, {}, 1)[0].keyframe, Kf(1, 8));
   // Replacing a keyframe's bag of words does not duplicate it.
-  db.Add(Kf(1, 8), Map(1), PlaceBow(7, 7));
+  db.Add(Kf(1, 8), MapOf(1), PlaceBow(7, 7));
   EXPECT_EQ(db.size(), 20u);
   EXPECT_EQ(db.Query(PlaceBow(7, 7), {}).size(), db.Query(PlaceBow(7, 7), {}).size());
 }
@@ -66,19 +66,19 @@ TEST(KeyframeDatabaseTest, MapAgentAndKeyframeFilters) {
   KeyframeDatabase db(kWords);
   // Agents 1 and 2 both visit places 0..9 (maps 1 and 2); agent 3 visits 5..9 in map 3.
   for (int p = 0; p < 10; ++p) {
-    db.Add(Kf(1, p + 1), Map(1), PlaceBow(p, 100 + p));
-    db.Add(Kf(2, p + 1), Map(2), PlaceBow(p, 200 + p));
-    if (p >= 5) db.Add(Kf(3, p + 1), Map(3), PlaceBow(p, 300 + p));
+    db.Add(Kf(1, p + 1), MapOf(1), PlaceBow(p, 100 + p));
+    db.Add(Kf(2, p + 1), MapOf(2), PlaceBow(p, 200 + p));
+    if (p >= 5) db.Add(Kf(3, p + 1), MapOf(3), PlaceBow(p, 300 + p));
   }
   const BowVector q = PlaceBow(6, 999);
   QueryFilter only1;
-  only1.only_maps = {Map(1)};
-  for (const auto& r : db.Query(q, only1)) EXPECT_EQ(r.map, Map(1));
+  only1.only_maps = {MapOf(1)};
+  for (const auto& r : db.Query(q, only1)) EXPECT_EQ(r.map, MapOf(1));
   QueryFilter not1;
-  not1.exclude_maps = {Map(1)};
+  not1.exclude_maps = {MapOf(1)};
   auto r = db.Query(q, not1);
   ASSERT_FALSE(r.empty());
-  for (const auto& x : r) EXPECT_NE(x.map, Map(1));
+  for (const auto& x : r) EXPECT_NE(x.map, MapOf(1));
   QueryFilter agent3;
   agent3.only_agents = {3};
   r = db.Query(q, agent3);
@@ -88,9 +88,9 @@ TEST(KeyframeDatabaseTest, MapAgentAndKeyframeFilters) {
   no_kf.exclude_keyframes = {Kf(1, 7), Kf(2, 7), Kf(3, 7)};
   for (const auto& x : db.Query(q, no_kf)) EXPECT_NE(x.keyframe.counter(), 7u);
   // After merging map 3 into map 2, map-2 queries see agent 3's keyframes.
-  EXPECT_EQ(db.ReassignMap(Map(3), Map(2)), 5u);
+  EXPECT_EQ(db.ReassignMap(MapOf(3), MapOf(2)), 5u);
   QueryFilter only2;
-  only2.only_maps = {Map(2)};
+  only2.only_maps = {MapOf(2)};
   bool saw_agent3 = false;
   for (const auto& x : db.Query(q, only2)) saw_agent3 |= x.agent == 3;
   EXPECT_TRUE(saw_agent3);
@@ -100,16 +100,16 @@ TEST(KeyframeDatabaseTest, CovisibilityGroupingPrefersConsistentPlaces) {
   KeyframeDatabase db(kWords);
   // Place 10 is seen by three covisible keyframes (1..3); place 30 by one isolated keyframe
   // (4) whose single score is slightly higher than each of the group's.
-  db.Add(Kf(1, 1), Map(1), PlaceBow(10, 1));
-  db.Add(Kf(1, 2), Map(1), PlaceBow(10, 2));
-  db.Add(Kf(1, 3), Map(1), PlaceBow(10, 3));
+  db.Add(Kf(1, 1), MapOf(1), PlaceBow(10, 1));
+  db.Add(Kf(1, 2), MapOf(1), PlaceBow(10, 2));
+  db.Add(Kf(1, 3), MapOf(1), PlaceBow(10, 3));
   BowVector mixed = PlaceBow(10, 50);
   const BowVector other = PlaceBow(30, 51);
   BowVector query;
   for (const auto& e : mixed.entries) query.entries.emplace_back(e.first, e.second * 0.5f);
   for (const auto& e : other.entries) query.entries.emplace_back(e.first, e.second * 0.5f);
   std::sort(query.entries.begin(), query.entries.end());
-  db.Add(Kf(1, 4), Map(1), other);
+  db.Add(Kf(1, 4), MapOf(1), other);
   auto covis = [](KeyframeId kf, int) -> std::vector<KeyframeId> {
     if (kf.counter() >= 1 && kf.counter() <= 3) {
       std::vector<KeyframeId> n;
@@ -153,7 +153,7 @@ TEST(KeyframeDatabaseTest, ConcurrentInsertEraseAndQuery) {
   for (int a = 1; a <= 2; ++a) {
     writers.emplace_back([&db, a] {
       for (int p = 0; p < 400; ++p) {
-        db.Add(Kf(a, p + 1), Map(a), PlaceBow(p % 25, p));
+        db.Add(Kf(a, p + 1), MapOf(a), PlaceBow(p % 25, p));
         if (p % 3 == 0) db.Erase(Kf(a, p / 2 + 1));
       }
     });

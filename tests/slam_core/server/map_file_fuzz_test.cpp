@@ -164,10 +164,6 @@ void WriteFile(const std::string& path, const std::string& payload) {
   out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
 }
 
-std::string TempPath(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
-}
-
 TEST(MapFileFuzz, MutatedFilesWithAValidChecksumAreRefusedWithAMessageOrLoadValid) {
   const auto sim = testing::LoadSim("hall3");
   ASSERT_NE(sim, nullptr);
@@ -183,8 +179,8 @@ TEST(MapFileFuzz, MutatedFilesWithAValidChecksumAreRefusedWithAMessageOrLoadVali
   }
   backend.ProcessAllQueued();
   ASSERT_GE(backend.Snapshot().Summaries().size(), 2u);
-  const std::string base_path = TempPath("ccm_fuzz_base.bin"), path = TempPath("ccm_fuzz_input.bin");
-  const std::string resaved = TempPath("ccm_fuzz_resaved.bin");
+  const std::string base_path = testing::TempPath("ccm_fuzz_base.bin"), path = testing::TempPath("ccm_fuzz_input.bin");
+  const std::string resaved = testing::TempPath("ccm_fuzz_resaved.bin");
   std::string error, warning;
   ASSERT_TRUE(SaveBackend(backend, base_path, &error)) << error;
   const std::string file = [&] {

@@ -19,10 +19,7 @@ namespace {
 
 using testing::LoadSim;
 using testing::SimVocabulary;
-
-std::string TempPath(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
-}
+using testing::TempPath;
 
 std::string ReadBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

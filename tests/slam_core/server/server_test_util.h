@@ -3,7 +3,9 @@
 #pragma once
 
 #include <glog/logging.h>
+#include <unistd.h>
 
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -32,6 +34,11 @@ inline std::shared_ptr<const Vocabulary> SimVocabulary() {
     return v ? std::make_shared<const Vocabulary>(std::move(*v)) : nullptr;
   }();
   return vocab;
+}
+
+/// A path in the temp folder unique to this process.
+inline std::string TempPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
 }
 
 inline std::shared_ptr<const sim::Simulation> LoadSim(const std::string& name) {
