@@ -157,11 +157,22 @@ MapScore ScoreMap(const MapSummary& m, const report::RunResult& r, const std::ve
 void ScoreRevisitLinks(const sim::Simulation& sim, const sim::OverlapTruth& truth, int agent,
                        const report::AgentRunResult& a, AgentScore* score) {
   const double gap_s = truth.options().revisit_gap_s;
+  const auto& traj = sim.trajectory(agent);
+  // A keyframe is in many links (a revisit links it to every early keyframe it shares
+  // points with): ray-cast each keyframe's view once.
+  std::map<std::int64_t, sim::SampledView> views;
+  const auto view = [&](std::int64_t ns) -> const sim::SampledView& {
+    auto it = views.find(ns);
+    if (it == views.end()) {
+      const double t = Seconds(sim, ns);
+      it = views.emplace(ns, truth.Sample(sim, traj.WorldFromCam(t), t)).first;
+    }
+    return it->second;
+  };
   for (const RevisitLink& l : a.revisit_links) {
     const double te = Seconds(sim, l.early_ns), tl = Seconds(sim, l.late_ns);
     if (tl - te < gap_s) continue;
-    const auto& t = sim.trajectory(agent);
-    if (truth.MayShareSurface(truth.Sample(sim, t.WorldFromCam(te), te), truth.Sample(sim, t.WorldFromCam(tl), tl))) {
+    if (truth.MayShareSurface(view(l.early_ns), view(l.late_ns))) {
       ++score->true_revisit_links;
     } else {
       ++score->false_revisit_links;
