@@ -50,6 +50,7 @@ if compgen -G "$OUT/tsan.*" >/dev/null; then
   cat "$OUT"/tsan.*
   status=1
 fi
-kfs=$(grep -a -o 'keyframes acked [0-9]*' "$OUT"/agent*.log | tail -2 | tr '\n' ' ' || true)
-echo "live run: $FRAMES frames per agent, $polls map view polls, ${kfs:-no ack counts found}; exit $status"
+# The agents' JSON summaries: keyframes made and lost (sent but never acknowledged).
+kfs=$(grep -a -h -o '"keyframes_created":[0-9]*\|"keyframes_lost":[0-9]*' "$OUT"/agent*.log | tr -d '"' | tr '\n' ' ' || true)
+echo "live run: $FRAMES frames per agent, $polls map view polls, ${kfs:-no agent summary found}; exit $status"
 exit "$status"
