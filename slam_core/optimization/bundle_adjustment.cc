@@ -9,15 +9,12 @@
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
+#include "slam_core/common/stopwatch.h"
 #include "slam_core/optimization/pose_manifold.h"
 #include "slam_core/optimization/reprojection_cost_analytic.h"
 
 namespace ccm::opt {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 ceres::LinearSolverType ToCeres(BaLinearSolver solver, int num_free_poses) {
   switch (solver) {

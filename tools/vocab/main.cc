@@ -14,6 +14,7 @@
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 
+#include "slam_core/common/stopwatch.h"
 #include "slam_core/io/dataset.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tools/vocab/default_vocabulary.h"
@@ -22,10 +23,6 @@
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double SecondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // At most two progress lines per second (and the last one), so logs stay short.
 class ProgressLine {
  public:
@@ -75,7 +72,7 @@ int TrainAndSave(const ccm::vocab::TrainingSources& sources, const ccm::vocab::C
   }
   std::size_t total = 0;
   for (const auto& im : images) total += im.size();
-  std::fprintf(stderr, "%zu images, %zu descriptors in %.1f s\n", images.size(), total, SecondsSince(t0));
+  std::fprintf(stderr, "%zu images, %zu descriptors in %.1f s\n", images.size(), total, ccm::SecondsSince(t0));
   if (images.empty()) return 1;
   const auto t1 = Clock::now();
   ProgressLine line;
@@ -85,7 +82,7 @@ int TrainAndSave(const ccm::vocab::TrainingSources& sources, const ccm::vocab::C
         std::fprintf(stderr, "\r%-10s %5.1f %%", p.stage.c_str(), 100.0 * p.fraction);
       });
   std::fprintf(stderr, "\ntrained k=%d L=%d: %zu words, %zu nodes in %.1f s\n", vocab.branching(),
-               vocab.levels(), vocab.num_words(), vocab.num_nodes(), SecondsSince(t1));
+               vocab.levels(), vocab.num_words(), vocab.num_nodes(), ccm::SecondsSince(t1));
   error = ccm::SaveVocabularyFile(vocab, out);
   if (!error.empty()) {
     std::fprintf(stderr, "train: %s\n", error.c_str());
@@ -159,7 +156,7 @@ int Info(const std::string& path) {
   const auto t0 = Clock::now();
   std::string error;
   auto vocab = ccm::LoadVocabularyFile(path, &error);
-  const double load_s = SecondsSince(t0);
+  const double load_s = ccm::SecondsSince(t0);
   if (!vocab) {
     std::fprintf(stderr, "info: %s\n", error.c_str());
     return 1;
