@@ -2,6 +2,7 @@
 
 #include "agent_runtime/cpu_usage.h"
 
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -22,21 +23,14 @@ size_t WireBytes(const msg::KeyframeFull& m) {
 }
 size_t WireBytes(const msg::MapPointFull& m) { return 48 + m.obs_kf_offsets().size() * 6; }
 
-ChangePackerOptions PackerOptions(const AgentConfig& config) {
-  ChangePackerOptions o;
-  o.new_keyframe_delay_s = config.new_keyframe_delay_s;
-  o.anchor_duplicates = config.anchor_duplicates;
-  return o;
-}
-
 }  // namespace
 
 std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::SessionOptions session_options,
-                                             AgentVo* vo, AckTracker* acks, std::string* error) {
+                                             AgentDataSource* source, AckTracker* acks, std::string* error) {
   session_options.participant_name = "ccm_agent_" + std::to_string(config.agent_id);
   auto session = rt::DdsSession::Create(session_options, error);
   if (!session) return nullptr;
-  std::unique_ptr<AgentComm> c(new AgentComm(config, std::move(session), vo, acks));
+  std::unique_ptr<AgentComm> c(new AgentComm(config, std::move(session), source, acks));
   rt::DdsSession& s = *c->session_;
   using namespace rt;
   // All of this agent's data goes in its own partition: the server checks it, and the
@@ -72,12 +66,9 @@ std::unique_ptr<AgentComm> AgentComm::Create(const AgentConfig& config, rt::Sess
   return c;
 }
 
-AgentComm::AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session, AgentVo* vo, AckTracker* acks)
-    : config_(std::move(config)),
-      session_(std::move(session)),
-      vo_(vo),
-      acks_(acks),
-      packer_(static_cast<AgentId>(config_.agent_id), PackerOptions(config_)) {}
+AgentComm::AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session, AgentDataSource* source,
+                     AckTracker* acks)
+    : config_(std::move(config)), session_(std::move(session)), source_(source), acks_(acks) {}
 
 AgentComm::~AgentComm() { Stop(); }
 
@@ -180,10 +171,8 @@ void AgentComm::Run() {
 }
 
 void AgentComm::PackChanges() {
-  if (flush_requested_) packer_.FlushNext();
   const auto t0 = Clock::now();
-  VoChanges changes = vo_->TakeChanges();
-  const AgentBatch batch = packer_.Pack(changes, rt::WallClockNs());
+  const AgentBatch batch = source_->TakeBatch(rt::WallClockNs(), flush_requested_);
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   reference_kf_ = batch.reference_kf;
   segment_ = batch.segment;
@@ -191,10 +180,11 @@ void AgentComm::PackChanges() {
   for (const MapPointData& mp : batch.map_points) mp_backlog_.push_back(conv::ToMsg(mp));
   for (const KeyframePoseUpdate& u : batch.keyframe_updates) kf_updates_.push_back(conv::ToMsg(u));
   for (const MapPointPositionUpdate& u : batch.map_point_updates) mp_updates_.push_back(conv::ToMsg(u, batch.segment));
+  const AgentDataSource::Counters counters = source_->counters();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.pack_ms_max = std::max(stats_.pack_ms_max, ms);
-  stats_.deferred = packer_.deferred();
-  stats_.kfs_sent_as_anchors = packer_.anchors_sent();
+  stats_.deferred = counters.deferred;
+  stats_.kfs_sent_as_anchors = counters.anchors_sent;
   stats_.pack_ms_total += ms;
   ++stats_.packs;
 }
@@ -269,18 +259,14 @@ void AgentComm::WriteBacklog() {
 }
 
 void AgentComm::Resend(const std::vector<KeyframeId>& ids) {
-  const auto map = vo_->map();
-  int resent = 0;
+  // Counted when written (WriteBacklog).
   for (const KeyframeId id : ids) {
-    if (map && map->keyframe(id)) {
-      packer_.Resend(id);
+    if (source_->Resend(id)) {
       resend_ids_.insert(id.packed());
-      ++resent;
     } else {
-      acks_->Forget(id);  // it left the local map unacknowledged: the VO counted it as lost
+      acks_->Forget(id);  // it left the local map unacknowledged: the source counted it as lost
     }
   }
-  (void)resent;  // counted when written (WriteBacklog)
 }
 
 void AgentComm::HandleServerMessage(const msg::ServerToAgent& message) {
@@ -308,7 +294,7 @@ void AgentComm::HandleServerMessage(const msg::ServerToAgent& message) {
   size_t received = 0;
   if (m->data && config_.map_sharing) {
     received = m->data->keyframes.size();
-    vo_->ApplyServerData(std::move(*m->data));
+    source_->ApplyServerData(std::move(*m->data));
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.server_msgs;
@@ -323,24 +309,51 @@ void AgentComm::PublishStatus() {
   status.ref_kf_id(reference_kf_.packed());
   status.map_segment_id(segment_.packed());
   const AgentCommStats s = Stats();
-  const AgentVoStats vs = vo_->stats();
-  if (vs.trim.removed_unpersisted > unpersisted_evictions_logged_) {
+  const AgentDataSource::Counters vs = source_->counters();
+  if (vs.removed_unpersisted > unpersisted_evictions_logged_) {
     spdlog::warn("agent {}: the local map bound (N + B) dropped {} keyframe(s) the server processed but has not "
                  "saved yet ({} in all): a server crash before its next save would lose them; size B with the "
                  "server's autosave_s (docs/deployment.md)",
-                 config_.agent_id, vs.trim.removed_unpersisted - unpersisted_evictions_logged_,
-                 vs.trim.removed_unpersisted);
-    unpersisted_evictions_logged_ = vs.trim.removed_unpersisted;
+                 config_.agent_id, vs.removed_unpersisted - unpersisted_evictions_logged_, vs.removed_unpersisted);
+    unpersisted_evictions_logged_ = vs.removed_unpersisted;
   }
   status.kfs_created(static_cast<std::uint32_t>(vs.keyframes_created));
   status.kfs_sent(static_cast<std::uint32_t>(s.kfs_sent));
   status.kfs_acked(static_cast<std::uint32_t>(s.kfs_acked));
   status.kfs_resent(static_cast<std::uint32_t>(s.kfs_resent));
-  status.kfs_lost(static_cast<std::uint32_t>(vs.trim.removed_lost));
+  status.kfs_lost(static_cast<std::uint32_t>(vs.keyframes_lost));
   status.mps_sent(static_cast<std::uint32_t>(s.mps_sent));
   status.write_failures(static_cast<std::uint32_t>(s.write_failures));
   status.tracking_state(static_cast<std::uint8_t>(tracking_state_.load()));
   status_writer_->Write(status);
+}
+
+nlohmann::json LinkSummaryJson(const AgentComm& comm) {
+  const AgentCommStats c = comm.Stats();
+  return {{"kfs_sent", c.kfs_sent},
+          {"kfs_sent_as_anchors", c.kfs_sent_as_anchors},
+          {"kfs_resent", c.kfs_resent},
+          {"kfs_resent_by_gap_rule", c.kfs_resent_gap},
+          {"kfs_acked", c.kfs_acked},
+          {"ack_ms_median", c.ack_latency.median_ms},
+          {"ack_ms_p95", c.ack_latency.p95_ms},
+          {"ack_ms_max", c.ack_latency.max_ms},
+          {"kfs_unacked", c.kfs_unacked},
+          {"kfs_persisted", c.kfs_persisted},
+          {"kfs_unpersisted", c.kfs_unpersisted},
+          {"server_restarts", c.server_restarts},
+          {"kfs_resent_after_restart", c.kfs_resent_after_restart},
+          {"server_msgs_stale", c.server_msgs_stale},
+          {"mps_sent", c.mps_sent},
+          {"kf_updates_sent", c.kf_updates_sent},
+          {"mp_updates_sent", c.mp_updates_sent},
+          {"write_failures", c.write_failures},
+          {"server_msgs", c.server_msgs},
+          {"server_msgs_rejected", c.server_msgs_rejected},
+          {"server_keyframes_received", c.server_keyframes_received},
+          {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
+          {"pack_ms_max", c.pack_ms_max},
+          {"new_data_bytes_per_cycle", c.new_data_bytes_per_cycle}};
 }
 
 }  // namespace ccm::agent

@@ -1,11 +1,12 @@
-// The agent's communication module (CCM-SLAM 4.5) on the real VO: every publish period it
-// takes the VO's changes (AgentVo::TakeChanges), packs them (ChangePacker: new keyframes and
-// points in full on the RELIABLE topics, pose/position updates on the BEST_EFFORT ones, all
-// relative), and writes at most max_bytes_per_cycle, so a backlog after an outage leaves in
+// The agent's communication module (CCM-SLAM 4.5): every publish period it takes a batch
+// from its data source (the VO's changes packed by a ChangePacker, or a recorded stream in
+// the fleet tool: agent_data_source.h) and writes it (new keyframes and points in full on
+// the RELIABLE topics, pose/position updates on the BEST_EFFORT ones, all relative), at most
+// max_bytes_per_cycle, so a backlog after an outage leaves in
 // several cycles instead of one burst. Server messages bring acknowledgements (AckTracker:
 // KF i acked but not i-1 -> i-1 again in full; unacknowledged for ack_timeout -> again) and
-// the server's k covisible keyframes, which go to the VO (map sharing).
-// Owns one thread (Start/Stop); the VO and the AckTracker are the caller's and outlive it.
+// the server's k covisible keyframes, which go to the source (map sharing: the VO).
+// Owns one thread (Start/Stop); the source and the AckTracker are the caller's and outlive it.
 // Stats() and SetTrackingState() from any thread.
 #pragma once
 
@@ -14,6 +15,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json_fwd.hpp>
 #include <set>
 #include <string>
 #include <thread>
@@ -21,13 +23,12 @@
 #include <vector>
 
 #include "agent_runtime/ack_tracker.h"
+#include "agent_runtime/agent_data_source.h"
 #include "agent_runtime/agent_config.h"
 #include "idl/ccm_msgsPubSubTypes.h"
 #include "runtime_common/dds_session.h"
 #include "runtime_common/msg_conversion.h"
 #include "runtime_common/typed_endpoints.h"
-#include "slam_core/vo/agent_vo.h"
-#include "slam_core/vo/change_packer.h"
 
 namespace ccm::agent {
 
@@ -61,8 +62,8 @@ struct AgentCommStats {
 
 class AgentComm {
  public:
-  static std::unique_ptr<AgentComm> Create(const AgentConfig& config, rt::SessionOptions session_options, AgentVo* vo,
-                                           AckTracker* acks, std::string* error);
+  static std::unique_ptr<AgentComm> Create(const AgentConfig& config, rt::SessionOptions session_options,
+                                           AgentDataSource* source, AckTracker* acks, std::string* error);
   ~AgentComm();
 
   void Start();
@@ -83,7 +84,7 @@ class AgentComm {
   int matched_servers() const { return keyframe_writer_->matched(); }
 
  private:
-  AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session, AgentVo* vo, AckTracker* acks);
+  AgentComm(AgentConfig config, std::unique_ptr<rt::DdsSession> session, AgentDataSource* source, AckTracker* acks);
   void Run();
   void PackChanges();
   void WriteBacklog();
@@ -93,7 +94,7 @@ class AgentComm {
 
   AgentConfig config_;
   std::unique_ptr<rt::DdsSession> session_;  // destroyed last (declared first)
-  AgentVo* vo_;
+  AgentDataSource* source_;
   AckTracker* acks_;
   std::unique_ptr<rt::TypedWriter<msg::KeyframeFullPubSubType>> keyframe_writer_;
   std::unique_ptr<rt::TypedWriter<msg::MapPointBatchPubSubType>> point_writer_;
@@ -104,7 +105,6 @@ class AgentComm {
 
   // Comm-thread state.
   int bytes_per_cycle_ = 0;  ///< new data per cycle: max_bytes_per_cycle within the writers' cap
-  ChangePacker packer_;
   conv::CameraCache cameras_;
   KeyframeId reference_kf_;
   MapId segment_;
@@ -135,5 +135,8 @@ class AgentComm {
   std::thread thread_;
   double cpu_seconds_ = 0.0;  ///< written by thread_ as it ends, read after the join
 };
+
+/// The link's counters as ccm_agent's JSON summary prints them ("link").
+nlohmann::json LinkSummaryJson(const AgentComm& comm);
 
 }  // namespace ccm::agent

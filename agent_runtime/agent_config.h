@@ -5,6 +5,7 @@
 #include <string>
 
 #include "slam_core/map/near_duplicate.h"
+#include "slam_core/vo/change_packer.h"
 #include "slam_core/vo/vo_options.h"
 
 namespace ccm::agent {
@@ -41,6 +42,13 @@ struct AgentConfig {
 
   /// The VO options the agent runs with: the `vo:` section with N and B applied.
   VoOptions EffectiveVo() const;
+  /// How the agent's ChangePacker packs (keyframe delay, pose anchors).
+  ChangePackerOptions Packing() const {
+    ChangePackerOptions o;
+    o.new_keyframe_delay_s = new_keyframe_delay_s;
+    o.anchor_duplicates = anchor_duplicates;
+    return o;
+  }
 
   /// Empty when valid, otherwise the first problem found.
   std::string Validate() const;

@@ -212,33 +212,6 @@ bool WriteOutputs(const RunOptions& o, const AgentVo& vo, const Flight& f, std::
   return o.keyframes_out.empty() || WriteTum(o.keyframes_out, own_keyframes, error);
 }
 
-nlohmann::json LinkSummary(const AgentComm& comm) {
-  const AgentCommStats c = comm.Stats();
-  return {{"kfs_sent", c.kfs_sent},
-          {"kfs_sent_as_anchors", c.kfs_sent_as_anchors},
-          {"kfs_resent", c.kfs_resent},
-          {"kfs_resent_by_gap_rule", c.kfs_resent_gap},
-          {"kfs_acked", c.kfs_acked},
-          {"ack_ms_median", c.ack_latency.median_ms},
-          {"ack_ms_p95", c.ack_latency.p95_ms},
-          {"ack_ms_max", c.ack_latency.max_ms},
-          {"kfs_unacked", c.kfs_unacked},
-          {"kfs_persisted", c.kfs_persisted},
-          {"kfs_unpersisted", c.kfs_unpersisted},
-          {"server_restarts", c.server_restarts},
-          {"kfs_resent_after_restart", c.kfs_resent_after_restart},
-          {"server_msgs_stale", c.server_msgs_stale},
-          {"mps_sent", c.mps_sent},
-          {"kf_updates_sent", c.kf_updates_sent},
-          {"mp_updates_sent", c.mp_updates_sent},
-          {"write_failures", c.write_failures},
-          {"server_msgs", c.server_msgs},
-          {"server_msgs_rejected", c.server_msgs_rejected},
-          {"server_keyframes_received", c.server_keyframes_received},
-          {"pack_ms_mean", c.packs ? c.pack_ms_total / c.packs : 0.0},
-          {"pack_ms_max", c.pack_ms_max},
-          {"new_data_bytes_per_cycle", c.new_data_bytes_per_cycle}};
-}
 
 // CPU per frame by thread and peak RSS (issue 29's budget). "other" is the rest of the
 // process: Fast DDS's threads, set-up (vocabulary, camera) and the final drain. The mapping
@@ -298,7 +271,7 @@ nlohmann::json Summary(const RunOptions& o, const Flight& f, const AgentVoStats&
   }
   summary["keyframe_reasons"] = reasons;
   if (comm) {
-    summary["link"] = LinkSummary(*comm);
+    summary["link"] = LinkSummaryJson(*comm);
     for (const auto& t : comm->Traffic()) summary["traffic"][t.topic + ":" + t.direction] = t.payload_bytes;
   }
   return summary;
@@ -344,9 +317,11 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   std::shared_ptr<const Vocabulary> vocabulary;
   if (!LoadAgentVocabulary(o, &vocabulary, &error)) return Error(error, 2);
   AgentVo vo(static_cast<AgentId>(o.agent_id), camera, o.vo, &acks, /*synchronous_mapping=*/false, vocabulary);
+  std::unique_ptr<VoDataSource> vo_source;  // declared before comm: destroyed after it
   std::unique_ptr<AgentComm> comm;
   if (comm_config) {
-    comm = AgentComm::Create(*comm_config, *session, &vo, &tracker, &error);
+    vo_source = std::make_unique<VoDataSource>(&vo, static_cast<AgentId>(o.agent_id), comm_config->Packing());
+    comm = AgentComm::Create(*comm_config, *session, vo_source.get(), &tracker, &error);
     if (!comm) return Error(error, 1);
     comm->Start();
   }

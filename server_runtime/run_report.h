@@ -100,6 +100,10 @@ struct RunEvaluation {
 
 RunEvaluation EvaluateRun(const RunResult& result);
 
+/// The run on stdout: per agent its VO and its keyframes in the largest map, every map with
+/// its agents and joint ATE, fusions, loops and place recognition's counts.
+void PrintRunSummary(const RunResult& result, const RunEvaluation& evaluation);
+
 /// Output file names: the keyframes of `agent` in map `map` ("map<k>_<agent>_keyframes.tum"),
 /// and a map's PLY ("map.ply" for the largest map, "map<k>.ply" for the others).
 std::string MapTrajectoryFile(MapId map, const std::string& agent);

@@ -303,9 +303,33 @@ std::optional<Recording> LoadRecording(const std::string& path, std::string* err
   return rec;
 }
 
+RunResult ResultFromBackend(const Recording& rec, const ServerBackend& backend) {
+  RunResult result;
+  const MapStackSnapshot maps = backend.Snapshot();
+  for (const RecordedAgent& a : rec.agents) {
+    AgentRunResult r;
+    r.name = a.name;
+    r.id = a.id;
+    r.frames = a.frames;
+    r.frames_tracked = a.frames_tracked;
+    r.keyframes_created = a.keyframes_created;
+    r.segments = a.segments;
+    r.ground_truth = a.ground_truth;
+    r.vo_keyframes = a.vo_keyframes;
+    r.vo_segments = a.vo_segments;
+    r.relocalizations = a.relocalizations;
+    r.server_keyframes = maps.AgentTrajectory(a.id);
+    r.revisit_links = maps.AgentRevisitLinks(a.id, report::kRevisitLinkGapNs, report::kRevisitLinkMinPoints);
+    result.agents.push_back(std::move(r));
+  }
+  result.events = maps.events;
+  result.maps = maps.Summaries();
+  result.stats = backend.Status().stats;
+  return result;
+}
+
 RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const PlayOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  RunResult result;
   const size_t last = std::min(o.last, rec.batches.size());
   {
     std::unique_ptr<server::BackendRunner> runner;
@@ -328,26 +352,7 @@ RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const Play
       }
     }
   }
-  const MapStackSnapshot maps = backend->Snapshot();
-  for (const RecordedAgent& a : rec.agents) {
-    AgentRunResult r;
-    r.name = a.name;
-    r.id = a.id;
-    r.frames = a.frames;
-    r.frames_tracked = a.frames_tracked;
-    r.keyframes_created = a.keyframes_created;
-    r.segments = a.segments;
-    r.ground_truth = a.ground_truth;
-    r.vo_keyframes = a.vo_keyframes;
-    r.vo_segments = a.vo_segments;
-    r.relocalizations = a.relocalizations;
-    r.server_keyframes = maps.AgentTrajectory(a.id);
-    r.revisit_links = maps.AgentRevisitLinks(a.id, report::kRevisitLinkGapNs, report::kRevisitLinkMinPoints);
-    result.agents.push_back(std::move(r));
-  }
-  result.events = maps.events;
-  result.maps = maps.Summaries();
-  result.stats = backend->Status().stats;
+  RunResult result = ResultFromBackend(rec, *backend);
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

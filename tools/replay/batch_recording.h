@@ -50,6 +50,10 @@ struct PlayOptions {
   bool final_global_ba = true;
 };
 
+/// The recording's agents (ground truth, VO) with their keyframes in `backend`'s maps, as
+/// EvaluateRun scores them (no wall time).
+RunResult ResultFromBackend(const Recording& recording, const ServerBackend& backend);
+
 /// Feeds the recorded batches into `backend` and returns a RunResult (agents' ground truth
 /// and VO trajectories from the recording, server trajectories from the back-end), so
 /// EvaluateRun scores it like a live replay.

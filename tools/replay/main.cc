@@ -134,62 +134,6 @@ bool OpenInputs(const Args& a, std::vector<ccm::replay::ReplayAgentInput>* input
   return !inputs->empty();
 }
 
-void PrintSummary(const ccm::report::RunResult& r, const ccm::report::RunEvaluation& ev) {
-  std::printf("\n%-12s %7s %8s %6s %10s %10s %12s %12s\n", "agent", "frames", "tracked", "segs", "KFs VO",
-              "KFs map", "ATE VO [m]", "ATE map [m]");
-  for (size_t i = 0; i < r.agents.size(); ++i) {
-    const auto& a = r.agents[i];
-    const auto& s = ev.agents[i];
-    std::printf("%-12s %7lld %7.1f%% %6d %10zu %10zu %12.4f %12.4f\n", a.name.c_str(), static_cast<long long>(a.frames),
-                a.frames ? 100.0 * a.frames_tracked / a.frames : 0.0, a.segments, s.vo_keyframes, s.server_keyframes,
-                s.standalone_ate_m.rmse, s.collaborative_ate_m.rmse);
-  }
-  std::printf("maps %zu, fusions %lld, loops %lld, redundant keyframes removed %lld, global BAs %lld (%lld aborted)\n",
-              ev.maps, static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops),
-              static_cast<long long>(r.stats.keyframes_removed), static_cast<long long>(r.stats.global_ba_applied),
-              static_cast<long long>(r.stats.global_ba_aborted));
-  const ccm::PlaceMatcherStats& p = r.stats.place;
-  std::string stopped;
-  for (int s = 0; s < ccm::kNumVerificationStages; ++s) {
-    if (p.fusion_stopped_at[s] == 0) continue;
-    stopped += std::string(stopped.empty() ? "" : ", ") +
-               ccm::VerificationStageName(static_cast<ccm::VerificationStage>(s)) + " " +
-               std::to_string(p.fusion_stopped_at[s]);
-  }
-  std::printf("place recognition: %lld queries, %lld fusion / %lld loop candidates, %lld verified, %lld inconsistent, "
-              "%lld fusions / %lld loops accepted; fusion candidates stopped at: %s\n",
-              static_cast<long long>(p.queries), static_cast<long long>(p.match_candidates),
-              static_cast<long long>(p.loop_candidates), static_cast<long long>(p.verified),
-              static_cast<long long>(p.inconsistent), static_cast<long long>(p.accepted_fusions),
-              static_cast<long long>(p.accepted_loops), stopped.empty() ? "none" : stopped.c_str());
-  // Every map with its agents: an agent that never fused shows up in a map of its own.
-  for (const auto& ms : ev.map_scores) {
-    std::string agents;
-    for (const auto& part : ms.agents) {
-      agents += (agents.empty() ? "" : ", ") + part.name + " (" + std::to_string(part.keyframes) + " KFs)";
-    }
-    std::printf("  map %llu%s: %zu keyframes (%zu anchored), %zu points; agents %s\n",
-                static_cast<unsigned long long>(ms.summary.id.counter()), ms.summary.id == ev.final_map ? " (largest)" : "",
-                ms.summary.keyframes + ms.summary.anchored, ms.summary.anchored, ms.summary.map_points,
-                agents.empty() ? "none" : agents.c_str());
-    if (ms.scored) {
-      std::printf("    joint ATE %.4f m = %.3f%% of %.1f m%s", ms.joint_ate_m.rmse, ms.joint_ate_percent, ms.path_m,
-                  ms.scale_ratio > 0 ? "" : "\n");
-      if (ms.scale_ratio > 0) std::printf(", scale ratio between the agents' parts %.3f\n", ms.scale_ratio);
-    }
-  }
-  if (ev.collaborative_ate_m.count > 0) {
-    std::printf("collaborative ATE %.4f m = %.4f%% of %.1f m joint path (mean standalone VO ATE %.4f m)\n",
-                ev.collaborative_ate_m.rmse, ev.collaborative_ate_percent, ev.joint_path_m, ev.mean_standalone_ate_m);
-  } else if (!ev.note.empty()) {
-    std::printf("accuracy: %s\n", ev.note.c_str());
-  }
-  for (const auto& e : r.events) {
-    if (e.kind == ccm::ServerEvent::Kind::kGlobalBa) continue;
-    std::printf("  t=%6.1fs %-8s agent %u map %llu %s\n", e.time_s, ccm::ServerEventKindName(e.kind), e.agent,
-                static_cast<unsigned long long>(e.map.counter()), e.detail.c_str());
-  }
-}
 
 }  // namespace
 
@@ -292,7 +236,7 @@ int main(int argc, char** argv) {
   });
   if (!result.error.empty()) return Fail(result.error, 1);
   const auto evaluation = ccm::report::EvaluateRun(result);
-  PrintSummary(result, evaluation);
+  ccm::report::PrintRunSummary(result, evaluation);
   if (!ccm::report::WriteRunOutputs(a.out, result, evaluation, backend->Snapshot(), &error)) return Fail(error, 1);
   if (!a.save_map.empty() && !ccm::SaveBackend(*backend, a.save_map, &error)) return Fail(error, 1);
   if (!a.record.empty()) {
