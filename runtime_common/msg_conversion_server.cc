@@ -16,10 +16,20 @@ namespace {
 constexpr int kDefaultPyramidLevels = 8;
 constexpr float kDefaultPyramidScaleFactor = 1.2f;
 
+// What the agent's FromMsg would reject (and with it the whole message): left out instead.
+// A point the server's map holds at near-infinite depth (a degenerate triangulation) costed
+// a 16-agent fleet run whole neighbourhoods ("position beyond 1e6 m").
+bool Within(const Eigen::Vector3d& v) {
+  return v.allFinite() && v.cwiseAbs().maxCoeff() <= kLimits.max_abs_coordinate_m;
+}
+
 bool Sendable(const ServerKeyframe& kf) {
   return kf.camera && kf.features && kf.features->size() <= msg::kMaxKeypoints &&
-         kf.features->keypoints.size() == kf.features->descriptors.size();
+         kf.features->keypoints.size() == kf.features->descriptors.size() && Within(kf.ref_from_cam.translation()) &&
+         kf.ref_from_cam.rotation().coeffs().allFinite();
 }
+
+bool Sendable(const ServerMapPoint& mp) { return Within(mp.position_ref); }
 
 msg::ServerKeyframe KeyframeToMsg(const ServerKeyframe& kf) {
   msg::ServerKeyframe m;
@@ -148,7 +158,7 @@ msg::ServerToAgent ToMsg(AgentId agent, int64_t stamp_ns, const std::vector<Keyf
   }
   for (const ServerMapPoint& mp : data->map_points) {
     if (m.map_points().size() >= msg::kMaxMapPointsPerServerMsg) break;
-    m.map_points().push_back(PointToMsg(mp, left_out));
+    if (Sendable(mp)) m.map_points().push_back(PointToMsg(mp, left_out));
   }
   return m;
 }

@@ -15,11 +15,6 @@
 namespace ccm {
 namespace {
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return in ? nlohmann::json::parse(in, nullptr, false) : nlohmann::json();
-}
-
 size_t KeyframesInMaps(const nlohmann::json& summary) {
   size_t n = 0;
   for (const auto& m : summary["maps"]) n += m["keyframes"].get<size_t>() + m["anchored_keyframes"].get<size_t>();
@@ -49,7 +44,7 @@ Life RunLife(const std::string& dir, const std::string& name, int domain, const 
   }
   life.server = testing::LastJsonLine(results[0].output);
   life.agent = testing::LastJsonLine(results[1].output);
-  life.summary = ReadJson(dir + "/" + name + "/summary.json");
+  life.summary = testing::ReadJsonFile(dir + "/" + name + "/summary.json");
   return life;
 }
 

@@ -2,6 +2,8 @@
 // both camera models, the IDL bounds on sending, and the camera cache.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 
 #include "idl/ccm_msgsPubSubTypes.h"
@@ -231,6 +233,27 @@ TEST(MsgConversion, ServerMessageRespectsEveryIdlBoundAndSerializes) {
   EXPECT_TRUE(type.serialize(&m, &payload));
   std::string error;
   EXPECT_TRUE(FromMsg(m, 1, nullptr, &error)) << error;
+}
+
+TEST(MsgConversion, ServerMessageLeavesOutWhatTheAgentWouldRejectInsteadOfLosingTheMessage) {
+  // A point the server holds at near-infinite depth, a keyframe placed far off: the agent's
+  // FromMsg rejects either (beyond 1e6 m), and with it every other keyframe and point.
+  ServerMapData data = testing::MakeServerMapData(1, 4, 50, 30);
+  data.map_points[3].position_ref = Eigen::Vector3d(0, 0, 3e6);
+  data.map_points[5].position_ref.x() = std::numeric_limits<double>::quiet_NaN();
+  const KeyframeId far = data.keyframes[2].id;
+  data.keyframes[2].ref_from_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(2e6, 0, 0));
+  std::string error;
+  const auto back = FromMsg(ToMsg(1, 0, {}, {}, &data), 1, nullptr, &error);
+  ASSERT_TRUE(back && back->data) << error;
+  EXPECT_EQ(back->data->keyframes.size(), 3u);
+  EXPECT_EQ(back->data->map_points.size(), 28u);
+  for (const ServerKeyframe& kf : back->data->keyframes) EXPECT_NE(kf.id, far);
+  for (const ServerMapPoint& mp : back->data->map_points) {
+    EXPECT_NE(mp.id, data.map_points[3].id);
+    EXPECT_NE(mp.id, data.map_points[5].id);
+    for (const auto& [kf, index] : mp.observations) EXPECT_NE(kf, far);
+  }
 }
 
 TEST(MsgConversion, CameraCacheSharesOneModelPerCalibrationAndStaysBounded) {
