@@ -28,6 +28,7 @@ Traffic SumTraffic(const std::vector<rt::TopicCountersSnapshot>& topics) {
 std::unique_ptr<Team> Team::Load(const TeamOptions& options, std::string* error) {
   std::unique_ptr<Team> team(new Team(options));
   AgentId next_id = 1;
+  std::vector<std::pair<double, AgentBatch>> timed;  // keep_batches: (start time [s], batch)
   for (size_t r = 0; r < options.recordings.size(); ++r) {
     auto rec = replay::LoadRecording(options.recordings[r], error);
     if (!rec) return nullptr;
@@ -61,10 +62,13 @@ std::unique_ptr<Team> Team::Load(const TeamOptions& options, std::string* error)
       const auto m = member_of.find(b.agent);
       if (m == member_of.end()) continue;
       agent::RemapAgents(to, &b);
+      if (options.keep_batches) timed.emplace_back(options.stagger_s * r + (b.stamp_ns - t0) * 1e-9, b);
       team->members_[m->second].batches.push_back(std::move(b));
     }
   }
   if (team->members_.empty()) return *error = "the recordings hold no agents", nullptr;
+  std::stable_sort(timed.begin(), timed.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (auto& [t, b] : timed) team->merged_.batches.push_back(std::move(b));
   return team;
 }
 
@@ -112,13 +116,15 @@ bool Team::Finished() const {
 }
 
 bool Team::Drain(std::chrono::milliseconds timeout) {
-  const auto deadline = Clock::now() + timeout;
+  const auto played = Clock::now();
+  const auto deadline = played + timeout;
   bool all = true;
   for (Member& m : members_) {
     if (!m.comm) continue;
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
     all = m.comm->WaitDrained(std::max(left, std::chrono::milliseconds(0))) && all;
   }
+  drain_s_ = std::chrono::duration<double>(Clock::now() - played).count();
   for (Member& m : members_) {
     if (m.comm) m.comm->Stop();
   }
@@ -191,6 +197,7 @@ nlohmann::json Team::Summary() const {
                            {"kfs_acked", acked},
                            {"kfs_unacked", unacked},
                            {"kfs_resent", resent},
+                           {"drain_s", drain_s_},
                            {"ack_ms_median_of_agents", ack_medians.empty() ? 0.0 : ack_medians[ack_medians.size() / 2]},
                            {"ack_ms_p95_worst_agent", ack_p95_max},
                            {"up_mb_per_s_per_agent", up / 1e6 / flight_s / n},

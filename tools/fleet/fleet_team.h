@@ -22,6 +22,8 @@ struct TeamOptions {
   size_t max_agents = 0;  ///< 0: all agents of all recordings
   double speed = 1.0;
   double stagger_s = 0.0;  ///< recording k starts k x this later
+  /// Keep every batch in one recording too (Offline()): for ccm_fleet --offline only.
+  bool keep_batches = false;
 };
 
 class Team {
@@ -47,6 +49,12 @@ class Team {
   nlohmann::json Summary() const;
   /// The merged recording's agents with their keyframes in `backend`'s maps (--score).
   report::RunResult ResultFromMaps(const ServerBackend& backend) const;
+  /// Every member's batches under its fleet id in the order of their start times (stagger
+  /// and stamps), with the members' ground truth and VO: what ccm_replay's deterministic
+  /// engine plays (--offline). Empty batches unless loaded with keep_batches.
+  const replay::Recording& recording() const { return merged_; }
+  /// Seconds from the last batch played to the last acknowledgement (after Drain).
+  double drain_s() const { return drain_s_; }
 
  private:
   struct Member {
@@ -66,6 +74,7 @@ class Team {
   replay::Recording merged_;  ///< ground truth and VO of every member, under its fleet id (no batches)
   std::vector<Member> members_;
   std::chrono::steady_clock::time_point started_;
+  double drain_s_ = 0.0;
 };
 
 }  // namespace ccm::fleet

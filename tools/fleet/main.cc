@@ -9,6 +9,8 @@
 //   ccm_fleet --domain 7 --recording a.ccmrec --recording b.ccmrec --out /tmp/fleet
 //   kill -INT %1; wait
 //   ccm_fleet --score /tmp/fleet.ccmmap --recording a.ccmrec --recording b.ccmrec --out /tmp/fleet
+//   ccm_fleet --offline --recording a.ccmrec --recording b.ccmrec --out /tmp/fleet   # the same streams
+//                                                      # through ccm_replay's deterministic engine
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -45,6 +47,7 @@ struct Args {
   fleet::TeamOptions team;
   std::string out = "fleet-out";
   std::string score_map;
+  bool offline = false;
   std::string vocabulary = rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
   double start_delay_s = 3.0;
   double drain_s = 60.0;
@@ -75,7 +78,10 @@ rt::DdsOptionsGiven AddOptions(CLI::App* app, Args* a) {
   app->add_option("--progress", a->progress_s, "seconds between progress lines")->capture_default_str();
   app->add_option("--score", a->score_map,
                   "no playing: score this map file (ccm_server --save-map) against the recordings' ground truth");
-  app->add_option("--vocab", a->vocabulary, "vocabulary the server used (--score)");
+  app->add_flag("--offline", a->offline,
+                "no DDS: play the streams into a back-end in this process (ccm_replay's deterministic engine) and "
+                "score it, the yardstick for a live run");
+  app->add_option("--vocab", a->vocabulary, "vocabulary the server used (--score, --offline)");
   return rt::AddDdsOptions(app, &a->config, &a->session);
 }
 
@@ -132,12 +138,39 @@ int Play(const Args& a, fleet::Team* team) {
   return drained ? 0 : 3;
 }
 
-int Score(const Args& a, const fleet::Team& team) {
-  if (a.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (the one the server used)");
+std::shared_ptr<const Vocabulary> LoadVocabulary(const Args& a, std::string* error) {
+  if (a.vocabulary.empty()) return *error = "no vocabulary: give --vocab FILE (the one the server used)", nullptr;
+  auto loaded = LoadVocabularyFile(a.vocabulary, error);
+  if (!loaded) return nullptr;
+  return std::make_shared<const Vocabulary>(std::move(*loaded));
+}
+
+void Report(const report::RunResult& result, const ServerBackend& backend, const std::string& dir) {
+  const report::RunEvaluation evaluation = report::EvaluateRun(result);
+  report::PrintRunSummary(result, evaluation);
   std::string error;
-  auto loaded = LoadVocabularyFile(a.vocabulary, &error);
-  if (!loaded) return Fail(error);
-  auto vocab = std::make_shared<const Vocabulary>(std::move(*loaded));
+  if (!report::WriteRunOutputs(dir, result, evaluation, backend.Snapshot(), &error)) {
+    spdlog::error("{}", error);
+    return;
+  }
+  std::printf("scored in %s (summary.json, map<k>_<agent>_keyframes.tum)\n", dir.c_str());
+}
+
+int Offline(const Args& a, const fleet::Team& team) {
+  std::string error;
+  auto vocab = LoadVocabulary(a, &error);
+  if (!vocab) return Fail(error);
+  ServerBackend backend(vocab, ServerOptions{});
+  spdlog::info("offline: {} batches of {} agents into one back-end", team.recording().batches.size(), team.size());
+  const report::RunResult result = replay::PlayRecording(team.recording(), &backend, replay::PlayOptions{});
+  Report(result, backend, a.out + "/offline");
+  return 0;
+}
+
+int Score(const Args& a, const fleet::Team& team) {
+  std::string error;
+  auto vocab = LoadVocabulary(a, &error);
+  if (!vocab) return Fail(error);
   auto backend = LoadBackend(a.score_map, vocab, ServerOptions{}, &error);
   if (!backend) return Fail(error, 1);
   report::RunResult result = team.ResultFromMaps(*backend);
@@ -147,10 +180,7 @@ int Score(const Args& a, const fleet::Team& team) {
     if (e.kind == ServerEvent::Kind::kLoop) ++result.stats.loops;
     if (e.kind == ServerEvent::Kind::kGlobalBa) ++result.stats.global_ba_applied;
   }
-  const report::RunEvaluation evaluation = report::EvaluateRun(result);
-  report::PrintRunSummary(result, evaluation);
-  if (!report::WriteRunOutputs(a.out + "/score", result, evaluation, backend->Snapshot(), &error)) return Fail(error, 1);
-  std::printf("score in %s/score (summary.json, map<k>_<agent>_keyframes.tum)\n", a.out.c_str());
+  Report(result, *backend, a.out + "/score");
   return 0;
 }
 
@@ -164,9 +194,12 @@ int main(int argc, char** argv) {
   rt::QuietCeresLogging(argv[0]);
   std::string error;
   if (!Resolve(given, &a, &error)) return Fail(error);
+  if (a.offline && !a.score_map.empty()) return Fail("--offline and --score exclude each other");
+  a.team.keep_batches = a.offline;
   auto team = fleet::Team::Load(a.team, &error);
   if (!team) return Fail(error);
   if (!a.score_map.empty()) return Score(a, *team);
+  if (a.offline) return Offline(a, *team);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   return Play(a, team.get());
