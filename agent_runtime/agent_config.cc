@@ -24,6 +24,9 @@ std::string AgentConfig::Validate() const {
   if (domain_id < 0 || domain_id > 232) return "domain_id must be in 0..232";
   if (!(publish_rate_hz > 0.0 && publish_rate_hz <= 50.0)) return "publish_rate_hz must be in (0, 50]";
   if (max_bytes_per_cycle < 1000) return "max_bytes_per_cycle must be >= 1000";
+  if (point_updates_per_sample < 1 || point_updates_per_sample > kMaxPointUpdatesPerSample) {
+    return "point_updates_per_sample must be in 1.." + std::to_string(kMaxPointUpdatesPerSample);
+  }
   if (!(status_rate_hz > 0.0 && status_rate_hz <= 50.0)) return "status_rate_hz must be in (0, 50]";
   if (!(resend_holdoff_s >= 0.0)) return "resend_holdoff_s must be >= 0";
   if (!(ack_timeout_s > 0.0)) return "ack_timeout_s must be > 0";
@@ -93,6 +96,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("log_level", &config->log_level);
   r.Get("publish_rate_hz", &config->publish_rate_hz);
   r.Get("max_bytes_per_cycle", &config->max_bytes_per_cycle);
+  r.Get("point_updates_per_sample", &config->point_updates_per_sample);
   r.Get("map_sharing", &config->map_sharing);
   r.Get("status_rate_hz", &config->status_rate_hz);
   r.Get("resend_holdoff_s", &config->resend_holdoff_s);

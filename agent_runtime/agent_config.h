@@ -20,6 +20,7 @@ struct AgentConfig {
   std::string log_level = "info";
   double publish_rate_hz = 4.0;        // agent -> server messages per second (CCM-SLAM: 2-5 Hz)
   int max_bytes_per_cycle = 600000;    // new data written per publish cycle; more waits (backlog split)
+  int point_updates_per_sample = 30;   // map point updates per BEST_EFFORT sample: 30 x ~40 B fit one 1400 B datagram (wifi.xml), so a lost datagram loses 30 updates, not a fragmented batch
   bool map_sharing = true;             // integrate the keyframes the server sends back
   double new_keyframe_delay_s = 1.5;   // a new KF leaves once this old (data time): KFs culled sooner never cost uplink
   // A KF within distance_ratio x scene depth and max_angle_deg of one the server has in full,
@@ -60,6 +61,9 @@ struct AgentConfig {
 /// its cap instead of sending at the cap (docs/qos-tuning.md), and repairs of lost
 /// fragments take their share of the cap too. At least 1000 bytes.
 inline constexpr double kShareOfCap = 0.75;
+/// The IDL's bound on map point updates per MapPointUpdateBatch (kMaxPointUpdatesPerBatch;
+/// agent_comm.cc checks that they agree).
+inline constexpr int kMaxPointUpdatesPerSample = 4096;
 int NewDataBytesPerCycle(int max_bytes_per_cycle, double cap_bytes_per_s, double publish_rate_hz);
 
 /// Loads `path` over the defaults in *config. False with a message naming file and key on
