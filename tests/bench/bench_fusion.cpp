@@ -167,6 +167,10 @@ int main(int argc, char** argv) {
                  "place recognition: inliers the first Sim(3) RANSAC needs (the refined one needs 20)")
       ->capture_default_str()
       ->check(CLI::Range(3, 100));
+  app.add_option("--theta", replay.server.redundancy.theta,
+                 "redundancy removal: a keyframe goes when this share of its points is seen by >= 3 others")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   app.add_option("--candidate-window", replay.server.place.candidate_window,

@@ -48,6 +48,7 @@ struct Args {
   std::string out = "fleet-out";
   std::string score_map;
   bool offline = false;
+  ServerOptions offline_server;
   std::string vocabulary = rt::FindDataFile(rt::kInstalledVocabulary, CCM_DEFAULT_VOCABULARY);
   double start_delay_s = 3.0;
   double drain_s = 60.0;
@@ -82,6 +83,10 @@ rt::DdsOptionsGiven AddOptions(CLI::App* app, Args* a) {
                 "no DDS: play the streams into a back-end in this process (ccm_replay's deterministic engine) and "
                 "score it, the yardstick for a live run");
   app->add_option("--vocab", a->vocabulary, "vocabulary the server used (--score, --offline)");
+  app->add_option("--theta", a->offline_server.redundancy.theta,
+                  "--offline: redundancy removal's threshold (share of a keyframe's points seen by >= 3 others)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   return rt::AddDdsOptions(app, &a->config, &a->session);
 }
 
@@ -160,7 +165,7 @@ int Offline(const Args& a, const fleet::Team& team) {
   std::string error;
   auto vocab = LoadVocabulary(a, &error);
   if (!vocab) return Fail(error);
-  ServerBackend backend(vocab, ServerOptions{});
+  ServerBackend backend(vocab, a.offline_server);
   spdlog::info("offline: {} batches of {} agents into one back-end", team.recording().batches.size(), team.size());
   const report::RunResult result = replay::PlayRecording(team.recording(), &backend, replay::PlayOptions{});
   Report(result, backend, a.out + "/offline");
