@@ -108,6 +108,9 @@ bool Resolve(const rt::DdsOptionsGiven& given, Args* a, std::string* error) {
     return false;
   }
   if (std::string problem = a->config.Validate(); !problem.empty()) return *error = problem, false;
+  // Every agent logs its link set-up at info: sixteen identical lines. The fleet's own
+  // progress is printed, so its agents log warnings and errors unless asked for more.
+  if (!*given.log && a->config_path.empty()) a->config.log_level = "warn";
   if (!rt::SetupLogging(a->config.log_level, error)) return false;
   return rt::ResolveSession(a->config, &a->session, error);
 }
@@ -120,9 +123,8 @@ int Play(const Args& a, fleet::Team* team) {
   const auto start = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                             std::chrono::duration<double>(a.start_delay_s));
   if (!team->Connect(a.config, a.session, start, &error)) return Fail(error, 1);
-  spdlog::info("fleet: {} agents from {} recording(s), {:.0f} s of wall time at {}x the recorded pace (+{:.0f} s "
-               "for discovery)", team->size(), a.team.recordings.size(), team->duration_s(), a.team.speed,
-               a.start_delay_s);
+  std::printf("fleet: %zu agents from %zu recording(s), %.0f s of wall time at %gx the recorded pace (+%.0f s for "
+              "discovery)\n", team->size(), a.team.recordings.size(), team->duration_s(), a.team.speed, a.start_delay_s);
   auto next_progress = std::chrono::steady_clock::now();
   while (!g_stop && !team->Finished()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -166,7 +168,7 @@ int Offline(const Args& a, const fleet::Team& team) {
   auto vocab = LoadVocabulary(a, &error);
   if (!vocab) return Fail(error);
   ServerBackend backend(vocab, a.offline_server);
-  spdlog::info("offline: {} batches of {} agents into one back-end", team.recording().batches.size(), team.size());
+  std::printf("offline: %zu batches of %zu agents into one back-end\n", team.recording().batches.size(), team.size());
   const report::RunResult result = replay::PlayRecording(team.recording(), &backend, replay::PlayOptions{});
   Report(result, backend, a.out + "/offline");
   return 0;
