@@ -85,5 +85,25 @@ TEST(Cli, HonoursDefaultProfilesFileFromEnvironment) {
   EXPECT_NE(r.output.find("env_qos.xml"), std::string::npos) << r.output;
 }
 
+TEST(Cli, FleetRefusesBadInputClearly) {
+  auto r = RunCli({CCM_FLEET, "--recording", "/nonexistent/a.ccmrec"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("a.ccmrec"), std::string::npos) << r.output;
+
+  const std::string garbage = ::testing::TempDir() + "/garbage.ccmrec";
+  std::ofstream(garbage) << "not a recording at all";
+  r = RunCli({CCM_FLEET, "--recording", garbage, "--offline"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("garbage.ccmrec"), std::string::npos) << r.output;
+
+  r = RunCli({CCM_FLEET, "--recording", garbage, "--speed", "0"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--speed"), std::string::npos) << r.output;
+
+  r = RunCli({CCM_FLEET, "--recording", garbage, "--offline", "--score", garbage});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("exclude each other"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace ccm
