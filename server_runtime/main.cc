@@ -180,6 +180,7 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
   options.max_agents = config.max_agents;
   options.agent_slot_release_s = config.agent_slot_release_s;
   options.neighbourhood_k = config.neighbourhood_k;
+  options.share_own_keyframes_after_s = config.share_own_keyframes_after_s;
   if (config.load_map.empty()) return std::make_unique<ServerBackend>(vocabulary, options);
   std::string warning;
   auto backend = LoadBackend(config.load_map, vocabulary, options, error, &warning);

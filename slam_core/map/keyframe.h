@@ -69,6 +69,11 @@ class KeyFrame {
 
   bool bad() const;
   void SetBad();
+  /// It came from the server (map sharing), also when it is one of the agent's own old
+  /// keyframes sent back: the server has it, the agent never sends it. Set before the
+  /// keyframe is added to a map.
+  bool from_server() const { return from_server_; }
+  void MarkFromServer() { from_server_ = true; }
 
  private:
   const KeyframeId id_;
@@ -86,6 +91,7 @@ class KeyFrame {
   std::set<KeyframeId> children_;
   std::set<KeyframeId> loop_edges_;
   bool bad_ = false;
+  bool from_server_ = false;
 };
 
 }  // namespace ccm

@@ -45,6 +45,10 @@ class MapPoint {
   /// Pyramid level at which the point should appear at this distance (ORB-SLAM rule).
   int PredictLevel(double distance_m, const ScalePyramid& pyramid) const;
 
+  /// It came from the server (map sharing): see KeyFrame::from_server(). Set before the
+  /// point is added to a map.
+  bool from_server() const { return from_server_; }
+  void MarkFromServer() { from_server_ = true; }
   bool bad() const;
   void SetBad(MapPointId replaced_by = MapPointId::Invalid());
   MapPointId replaced_by() const;
@@ -64,6 +68,7 @@ class MapPoint {
   Eigen::Vector3d normal_ = Eigen::Vector3d::Zero();
   double min_distance_m_ = 0.0, max_distance_m_ = 0.0;
   bool bad_ = false;
+  bool from_server_ = false;
   MapPointId replaced_by_;
   int visible_ = 1, found_ = 1;
 };

@@ -33,15 +33,19 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
   ServerMapData data;
   data.reference_kf = reference_kf;
   std::set<KeyframeId> sent;
-  // Other agents' keyframes only: the agent's own covisible keyframes are in its local map
+  // Other agents' keyframes: the agent's own recent covisible keyframes are in its local map
   // already (it made them), and sending them back would double the downlink for nothing.
-  // Before any fusion this is empty and nothing is sent.
+  // Its own old ones (own_keyframes_after_s) its bounded local map has forgotten: without
+  // them, an agent back at a place it flew maps it again. Before any fusion, and without
+  // old own keyframes, this is empty and nothing is sent.
+  const auto own_old = [&](const KeyFrame& kf) {
+    return options.own_keyframes_after_s > 0.0 &&
+           static_cast<double>(base->stamp_ns() - kf.stamp_ns()) * 1e-9 > options.own_keyframes_after_s;
+  };
   for (const KeyframeId id : base->BestCovisible(8 * options.keyframes + 1)) {
-    if (id == reference_kf || id.agent() == agent || static_cast<int>(data.keyframes.size()) >= options.keyframes) {
-      continue;
-    }
+    if (id == reference_kf || static_cast<int>(data.keyframes.size()) >= options.keyframes) continue;
     const auto kf = map.keyframe(id);
-    if (!kf) continue;
+    if (!kf || (id.agent() == agent && !own_old(*kf))) continue;
     ServerKeyframe skf;
     skf.id = id;
     skf.stamp_ns = kf->stamp_ns();

@@ -1,5 +1,6 @@
 // What the server sends back to an agent (CCM-SLAM 4.5): the k keyframes most covisible
-// with the agent's reference keyframe, from any other agent (its own it has), and their
+// with the agent's reference keyframe, from any other agent (its own recent ones it has;
+// its own old ones too with own_keyframes_after_s, which its bounded local map forgot), and their
 // points, expressed relative to that reference keyframe in the agent's VO scale (the
 // handler's lambda), so the agent can place them however its own frame drifted. Synchronous; takes the map's structure lock
 // shared while it copies.
@@ -15,6 +16,8 @@ namespace ccm {
 struct NeighbourhoodOptions {
   int keyframes = 5;        ///< k
   size_t max_points = 4096;  ///< cap per message (IDL bound)
+  /// > 0: also the agent's own keyframes this much older than its reference keyframe [s].
+  double own_keyframes_after_s = 0.0;
 };
 
 /// nullopt if the server does not know `reference_kf` (not arrived yet) or has nothing to send.

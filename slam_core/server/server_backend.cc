@@ -333,6 +333,7 @@ AgentAcks ServerBackend::TakeAcks(AgentId agent) {
 std::optional<ServerMapData> ServerBackend::Neighbourhood(AgentId agent, KeyframeId reference_kf) const {
   NeighbourhoodOptions o;
   o.keyframes = options_.neighbourhood_k;
+  o.own_keyframes_after_s = options_.share_own_keyframes_after_s;
   return AgentNeighbourhood(*stack_, agent, reference_kf, o);
 }
 

@@ -75,6 +75,7 @@ std::string ServerOptions::Validate() const {
   if (max_queued_bytes_per_agent < (size_t{1} << 20)) return "max_queued_bytes_per_agent must be >= 1 MiB";
   if (max_segments_per_agent < 1) return "max_segments_per_agent must be >= 1";
   if (neighbourhood_k < 0) return "neighbourhood_k must be >= 0";
+  if (!(share_own_keyframes_after_s >= 0.0)) return "share_own_keyframes_after_s must be >= 0";
   return "";
 }
 

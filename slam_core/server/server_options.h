@@ -149,6 +149,10 @@ struct ServerOptions {
   /// hostile agent cannot make the server create maps without end.
   int max_segments_per_agent = 64;
   int neighbourhood_k = 5;  ///< keyframes sent back to an agent (CCM-SLAM default 5)
+  /// > 0: the neighbourhood also holds the agent's own keyframes older than this many seconds
+  /// before its reference keyframe (its local map forgot them; coming back, it would map the
+  /// place again). 0: other agents' keyframes only (CCM-SLAM). Experimental (issue 30).
+  double share_own_keyframes_after_s = 0.0;
   std::string Validate() const;
 };
 

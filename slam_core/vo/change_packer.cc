@@ -137,7 +137,7 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   const KeyframeFilter is_anchor = [this](KeyframeId kf) { return IsAnchor(kf); };
   std::vector<KeyframeId> updated;  // packed after the new ones: they may become anchors
   for (const KeyframeId id : kfs) {
-    if (id.agent() != agent_) continue;
+    if (id.agent() != agent_ || FromServer(map, id)) continue;  // the server has those
     const bool full = resend_.count(id) || !sent_kfs_.count(id);
     if (full) {
       if (!resend_.count(id)) {
@@ -181,10 +181,12 @@ AgentBatch ChangePacker::Pack(const VoChanges& changes, int64_t stamp_ns) {
   points.insert(resend_points.begin(), resend_points.end());
   for (const MapPointId id : points) {
     if (id.agent() != agent_) continue;
+    if (const auto mp = map.map_point(id); mp && mp->from_server()) continue;  // sent back: the server has it
     auto d = PackMapPoint(map, id, is_anchor);
     if (!d) continue;
     auto sent = sent_points_.find(id);
-    if (sent == sent_points_.end() && d->reference_kf.agent() == agent_ && !sent_kfs_.count(d->reference_kf)) {
+    if (sent == sent_points_.end() && d->reference_kf.agent() == agent_ && !sent_kfs_.count(d->reference_kf) &&
+        !FromServer(map, d->reference_kf)) {
       deferred_points_.insert(id);  // its reference keyframe has not left yet
       continue;
     }
@@ -242,9 +244,14 @@ void ChangePacker::DropLinksToLaterPoints(const Map& map, KeyframeData* kf) cons
                                const auto mp = map.map_point(mp_id);
                                if (!mp) return false;
                                const KeyframeId ref = mp->reference_kf();
-                               return ref != kf->id && !sent_kfs_.count(ref);
+                               return ref != kf->id && !sent_kfs_.count(ref) && !FromServer(map, ref);
                              }),
               links.end());
+}
+
+bool ChangePacker::FromServer(const Map& map, KeyframeId id) {
+  const auto kf = map.keyframe(id);
+  return kf && kf->from_server();
 }
 
 bool ChangePacker::ServerHasInFull(KeyframeId id) const {
@@ -265,7 +272,8 @@ std::optional<KeyframeData> ChangePacker::PackNew(const Map& map, KeyframeId id,
     // never follow each other for long). Counting only what is already sent would miss
     // most duplicates: at 1.5 s old a keyframe's points are ~25 % seen by younger keyframes.
     dup = NearDuplicateOf(
-        map, *kf, options_.anchor_duplicates, [this](KeyframeId k) { return ServerHasInFull(k); },
+        map, *kf, options_.anchor_duplicates,
+        [this, &map](KeyframeId k) { return ServerHasInFull(k) || FromServer(map, k); },
         [this](KeyframeId k) { return !IsAnchor(k); });
   }
   auto d = PackKeyframe(map, id, [this](KeyframeId k) { return IsAnchor(k); });

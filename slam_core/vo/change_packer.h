@@ -74,6 +74,8 @@ class ChangePacker {
   /// The server has this keyframe with its features: another agent's (shared with us) or
   /// one of ours sent in full.
   bool ServerHasInFull(KeyframeId id) const;
+  /// In `map` as the server sent it (map sharing; own old keyframes come back so too).
+  static bool FromServer(const Map& map, KeyframeId id);
   bool IsAnchor(KeyframeId id) const { return anchored_.count(id) > 0; }
   /// `kf` packed in full, or as an anchor if it nearly duplicates a keyframe the server has.
   std::optional<KeyframeData> PackNew(const Map& map, KeyframeId id, bool resend);

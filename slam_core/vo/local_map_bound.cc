@@ -14,10 +14,14 @@ std::string LocalMapBoundOptions::Validate() const {
 LocalMapBound::LocalMapBound(AgentId own_agent, LocalMapBoundOptions options)
     : own_agent_(own_agent), options_(options) {}
 
-void LocalMapBound::OnKeyframeInserted(KeyframeId kf) { recency_.push_back(kf); }
+void LocalMapBound::OnKeyframeInserted(KeyframeId kf, bool from_server) {
+  recency_.push_back(kf);
+  if (from_server && kf.agent() == own_agent_) returned_.insert(kf);
+}
 
 bool LocalMapBound::EraseFromMap(Map* map, KeyframeId kf) {
   recency_.erase(std::remove(recency_.begin(), recency_.end(), kf), recency_.end());
+  returned_.erase(kf);
   return map->EraseKeyframe(kf);
 }
 
@@ -25,6 +29,8 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
   // Forget keyframes the map lost by other means (culling, server replacement).
   recency_.erase(std::remove_if(recency_.begin(), recency_.end(), [&](KeyframeId k) { return !map->keyframe(k); }),
                  recency_.end());
+  for (auto it = returned_.begin(); it != returned_.end();) it = map->keyframe(*it) ? std::next(it) : returned_.erase(it);
+  const auto server_has = [&](KeyframeId kf) { return kf.agent() != own_agent_ || returned_.count(kf) > 0; };
   const size_t n = static_cast<size_t>(options_.max_keyframes);
   // Candidates: everything except the reference and the N-1 most recent others.
   std::vector<KeyframeId> old;
@@ -42,7 +48,7 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
   // buffer. Old foreign keyframes stay while there is room: they help tracking.
   std::vector<KeyframeId> processed, unacked;  // buffered, oldest first
   for (const KeyframeId kf : old) {
-    if (kf.agent() != own_agent_) continue;
+    if (server_has(kf)) continue;
     if (acks.IsPersisted(kf)) {
       if (EraseFromMap(map, kf)) ++stats_.removed_acked;
     } else {
@@ -56,7 +62,7 @@ void LocalMapBound::Trim(Map* map, KeyframeId reference_kf, const AckSource& ack
   // risk only if the server crashes), then the oldest unacknowledged own ones.
   std::vector<KeyframeId> foreign;
   for (const KeyframeId kf : recency_) {
-    if (kf.agent() != own_agent_ && kf != reference_kf) foreign.push_back(kf);
+    if (server_has(kf) && kf != reference_kf) foreign.push_back(kf);
   }
   for (const KeyframeId kf : foreign) {
     if (total <= limit) break;

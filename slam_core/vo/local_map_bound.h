@@ -56,8 +56,10 @@ class LocalMapBound {
  public:
   LocalMapBound(AgentId own_agent, LocalMapBoundOptions options);
 
-  /// Records insertion order (recency). Call for every keyframe added to the map.
-  void OnKeyframeInserted(KeyframeId kf);
+  /// Records insertion order (recency). Call for every keyframe added to the map;
+  /// `from_server`: it came from the server (map sharing), which has it, also when it is
+  /// one of the agent's own old keyframes sent back: it is trimmed like another agent's.
+  void OnKeyframeInserted(KeyframeId kf, bool from_server = false);
   /// Erases keyframes from `map` per the rules above; `reference_kf` is never erased.
   void Trim(Map* map, KeyframeId reference_kf, const AckSource& acks);
 
@@ -70,6 +72,7 @@ class LocalMapBound {
   const AgentId own_agent_;
   const LocalMapBoundOptions options_;
   std::deque<KeyframeId> recency_;  // oldest first
+  std::unordered_set<KeyframeId> returned_;  // own keyframes the server sent back (in the map)
   TrimStats stats_;
 };
 

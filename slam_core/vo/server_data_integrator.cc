@@ -20,8 +20,10 @@ void IntegrateKeyframes(const ServerMapData& data, const SE3& world_from_ref, Ag
       }
       continue;
     }
-    map->AddKeyframe(std::make_shared<KeyFrame>(skf.id, skf.stamp_ns, skf.camera, skf.features, pyramid, world_from_cam));
-    bound->OnKeyframeInserted(skf.id);
+    auto kf = std::make_shared<KeyFrame>(skf.id, skf.stamp_ns, skf.camera, skf.features, pyramid, world_from_cam);
+    kf->MarkFromServer();
+    map->AddKeyframe(kf);
+    bound->OnKeyframeInserted(skf.id, /*from_server=*/true);
     touched->insert(skf.id);
     ++stats->keyframes_added;
   }
@@ -35,6 +37,7 @@ void IntegratePoints(const ServerMapData& data, const SE3& world_from_ref, Agent
     if (!mp) {
       if (smp.observations.empty()) continue;
       mp = std::make_shared<MapPoint>(smp.id, p_w, smp.observations.front().first, smp.descriptor);
+      mp->MarkFromServer();
       map->AddMapPoint(mp);
       ++stats->points_added;
     } else if (smp.id.agent() != own_agent) {

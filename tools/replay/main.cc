@@ -170,6 +170,11 @@ int main(int argc, char** argv) {
                  "new_keyframe_delay_s and map_sharing (the flags above win)")->check(CLI::ExistingFile);
   app.add_flag("--no-redundancy", a.no_redundancy, "keep every keyframe (no redundancy removal)");
   app.add_option("--theta", a.replay.server.redundancy.theta, "redundancy threshold")->capture_default_str();
+  app.add_option("--share-own-after", a.replay.server.share_own_keyframes_after_s,
+                 "map sharing also sends an agent its own keyframes this many seconds older than its reference "
+                 "(0: other agents' only; experimental)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-final-ba", a.no_final_ba, "skip the global BA of every map at the end");
   app.add_option("--load-map", a.load_map, "start from a saved map stack");
   app.add_option("--save-map", a.save_map, "save the map stack at the end");

@@ -57,6 +57,34 @@ TEST(LocalMapBound, ProcessedButUnsavedKeyframesStayUntilPersistedAndGoBeforeUna
   EXPECT_EQ(chain.builder.map().num_keyframes(), 8u);
 }
 
+TEST(LocalMapBound, OwnKeyframesTheServerSentBackGoLikeOtherAgentsAndAreNeverCountedLost) {
+  // Map sharing may send an agent its own old keyframes (share_own_keyframes_after_s): the
+  // ack tracker has long forgotten them, but the server has them, so trimming them is no loss.
+  Chain chain;
+  LocalMapBound bound(1, {4, 2});
+  SetAck none;
+  Map& map = chain.builder.map();
+  std::vector<KeyframeId> returned;
+  for (int i = 0; i < 3; ++i) {
+    const KeyframeId id = chain.builder.AddKeyframe(100.0 + i);  // agent 1's, as the server sends them
+    map.UpdateConnections(id);
+    bound.OnKeyframeInserted(id, /*from_server=*/true);
+    returned.push_back(id);
+  }
+  for (int i = 0; i < 5; ++i) bound.Trim(&map, chain.Add(&bound), none);
+  // 8 keyframes over N + B = 6: the two oldest returned ones go first, as foreign ones would.
+  EXPECT_EQ(map.num_keyframes(), 6u);
+  EXPECT_EQ(bound.stats().removed_foreign, 2);
+  EXPECT_EQ(bound.stats().removed_lost, 0);
+  EXPECT_EQ(map.keyframe(returned[0]), nullptr);
+  EXPECT_EQ(map.keyframe(returned[1]), nullptr);
+  // Without the flag the same keyframes would have been unacknowledged own data, and lost.
+  Chain plain;
+  LocalMapBound plain_bound(1, {4, 2});
+  for (int i = 0; i < 8; ++i) plain_bound.Trim(&plain.builder.map(), plain.Add(&plain_bound), none);
+  EXPECT_EQ(plain_bound.stats().removed_lost, 2);
+}
+
 TEST(LocalMapBound, WithoutAcksKeepsAtMostNPlusBAndCountsLoss) {
   Chain chain;
   LocalMapBound bound(1, {10, 10});
