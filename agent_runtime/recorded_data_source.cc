@@ -48,6 +48,7 @@ RecordedDataSource::RecordedDataSource(std::vector<AgentBatch> batches, int64_t 
                                        double speed)
     : batches_(std::move(batches)), t0_ns_(t0_ns), start_(start), speed_(speed > 0 ? speed : 1.0) {
   if (!batches_.empty()) duration_s_ = static_cast<double>(batches_.back().stamp_ns - batches_.front().stamp_ns) * 1e-9;
+  for (const AgentBatch& b : batches_) keyframes_left_ += b.keyframes.size();
 }
 
 bool RecordedDataSource::Due(const AgentBatch& b, Clock::time_point now) const {
@@ -70,6 +71,7 @@ AgentBatch RecordedDataSource::TakeBatch(int64_t /*now_ns*/, bool /*flush*/) {
     }
     out.reference_kf = b.reference_kf;
     out.stamp_ns = b.stamp_ns;
+    keyframes_left_ -= b.keyframes.size();
     for (KeyframeData& k : b.keyframes) {
       ++keyframes_taken_;
       if (k.anchor_only) ++anchors_taken_;
@@ -113,7 +115,7 @@ AgentDataSource::Counters RecordedDataSource::counters() const {
   c.keyframes_created = keyframes_taken_;
   c.anchors_sent = anchors_taken_;
   // Keyframes not played yet count as held back, so AgentComm::Drained() waits for them.
-  for (size_t i = next_.load(); i < batches_.size(); ++i) c.deferred += batches_[i].keyframes.size();
+  c.deferred = keyframes_left_;
   return c;
 }
 

@@ -59,6 +59,7 @@ class RecordedDataSource : public AgentDataSource {
   std::unordered_map<KeyframeId, KeyframeData> sent_;  ///< every keyframe taken, for resends
   std::vector<KeyframeId> resend_;
   int64_t keyframes_taken_ = 0;
+  size_t keyframes_left_ = 0;  ///< in batches not taken yet
   size_t anchors_taken_ = 0;
   std::atomic<uint64_t> server_keyframes_{0}, server_points_{0};
 };

@@ -131,42 +131,46 @@ bool Team::Drain(std::chrono::milliseconds timeout) {
   return all;
 }
 
-std::string Team::ProgressLine() const {
-  uint64_t sent = 0, acked = 0, unacked = 0, resent = 0, shared = 0, up = 0, down = 0;
-  int matched = 0;
+Team::Totals Team::Sum() const {
+  Totals t;
   for (const Member& m : members_) {
     if (!m.comm) continue;
     const agent::AgentCommStats s = m.comm->Stats();
-    sent += s.kfs_sent;
-    acked += s.kfs_acked;
-    unacked += s.kfs_unacked;
-    resent += s.kfs_resent;
-    shared += s.server_keyframes_received;
-    const Traffic t = SumTraffic(m.comm->Traffic());
-    up += t.up_bytes;
-    down += t.down_bytes;
-    matched += m.comm->matched_servers() > 0 ? 1 : 0;
+    const Traffic traffic = SumTraffic(m.comm->Traffic());
+    t.sent += s.kfs_sent;
+    t.acked += s.kfs_acked;
+    t.unacked += s.kfs_unacked;
+    t.resent += s.kfs_resent;
+    t.shared += s.server_keyframes_received;
+    t.up += traffic.up_bytes;
+    t.down += traffic.down_bytes;
+    t.matched += m.comm->matched_servers() > 0 ? 1 : 0;
+    t.ack_p95_max = std::max(t.ack_p95_max, s.ack_latency.p95_ms);
+    if (s.ack_latency.count > 0) t.ack_medians.push_back(s.ack_latency.median_ms);
   }
+  std::sort(t.ack_medians.begin(), t.ack_medians.end());
+  return t;
+}
+
+std::string Team::ProgressLine() const {
+  const Totals s = Sum();
   const double t = std::chrono::duration<double>(Clock::now() - started_).count();
   char line[256];
   std::snprintf(line, sizeof line,
                 "fleet %6.1f s  agents %zu (%d matched)  keyframes sent %llu acked %llu unacked %llu resent %llu  "
                 "shared back %llu  up %.1f MB down %.1f MB",
-                t, members_.size(), matched, static_cast<unsigned long long>(sent),
-                static_cast<unsigned long long>(acked), static_cast<unsigned long long>(unacked),
-                static_cast<unsigned long long>(resent), static_cast<unsigned long long>(shared), up / 1e6, down / 1e6);
+                t, members_.size(), s.matched, static_cast<unsigned long long>(s.sent),
+                static_cast<unsigned long long>(s.acked), static_cast<unsigned long long>(s.unacked),
+                static_cast<unsigned long long>(s.resent), static_cast<unsigned long long>(s.shared), s.up / 1e6,
+                s.down / 1e6);
   return line;
 }
 
 nlohmann::json Team::Summary() const {
   const double wall_s = std::max(1e-3, std::chrono::duration<double>(Clock::now() - started_).count());
   nlohmann::json agents = nlohmann::json::array();
-  uint64_t sent = 0, acked = 0, unacked = 0, resent = 0, up = 0, down = 0;
-  double ack_p95_max = 0.0;
-  std::vector<double> ack_medians;
   for (const Member& m : members_) {
     if (!m.comm) continue;
-    const agent::AgentCommStats s = m.comm->Stats();
     const Traffic t = SumTraffic(m.comm->Traffic());
     const double flown_s = std::max(1e-3, m.source->duration_s() / options_.speed);
     agents.push_back({{"id", m.id},
@@ -179,29 +183,22 @@ nlohmann::json Team::Summary() const {
                       {"down_bytes", t.down_bytes},
                       {"up_mb_per_s", t.up_bytes / 1e6 / flown_s},
                       {"down_mb_per_s", t.down_bytes / 1e6 / flown_s}});
-    sent += s.kfs_sent;
-    acked += s.kfs_acked;
-    unacked += s.kfs_unacked;
-    resent += s.kfs_resent;
-    up += t.up_bytes;
-    down += t.down_bytes;
-    ack_p95_max = std::max(ack_p95_max, s.ack_latency.p95_ms);
-    if (s.ack_latency.count > 0) ack_medians.push_back(s.ack_latency.median_ms);
   }
-  std::sort(ack_medians.begin(), ack_medians.end());
+  const Totals s = Sum();
   const double n = static_cast<double>(std::max<size_t>(1, members_.size()));
   const double flight_s = std::max(1e-3, duration_s());
-  nlohmann::json totals = {{"agents", members_.size()},
-                           {"wall_s", wall_s},
-                           {"kfs_sent", sent},
-                           {"kfs_acked", acked},
-                           {"kfs_unacked", unacked},
-                           {"kfs_resent", resent},
-                           {"drain_s", drain_s_},
-                           {"ack_ms_median_of_agents", ack_medians.empty() ? 0.0 : ack_medians[ack_medians.size() / 2]},
-                           {"ack_ms_p95_worst_agent", ack_p95_max},
-                           {"up_mb_per_s_per_agent", up / 1e6 / flight_s / n},
-                           {"down_mb_per_s_per_agent", down / 1e6 / flight_s / n}};
+  nlohmann::json totals = {
+      {"agents", members_.size()},
+      {"wall_s", wall_s},
+      {"kfs_sent", s.sent},
+      {"kfs_acked", s.acked},
+      {"kfs_unacked", s.unacked},
+      {"kfs_resent", s.resent},
+      {"drain_s", drain_s_},
+      {"ack_ms_median_of_agents", s.ack_medians.empty() ? 0.0 : s.ack_medians[s.ack_medians.size() / 2]},
+      {"ack_ms_p95_worst_agent", s.ack_p95_max},
+      {"up_mb_per_s_per_agent", s.up / 1e6 / flight_s / n},
+      {"down_mb_per_s_per_agent", s.down / 1e6 / flight_s / n}};
   return {{"totals", totals}, {"agents", agents}};
 }
 

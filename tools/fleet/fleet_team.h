@@ -68,7 +68,15 @@ class Team {
     std::unique_ptr<agent::AckTracker> acks;
     std::unique_ptr<agent::AgentComm> comm;  ///< last: stopped and destroyed first
   };
+  /// The members' link counters summed (progress lines and fleet.json's totals).
+  struct Totals {
+    uint64_t sent = 0, acked = 0, unacked = 0, resent = 0, shared = 0, up = 0, down = 0;
+    int matched = 0;
+    double ack_p95_max = 0.0;
+    std::vector<double> ack_medians;  ///< per agent, ascending
+  };
   explicit Team(TeamOptions options) : options_(std::move(options)) {}
+  Totals Sum() const;
 
   TeamOptions options_;
   replay::Recording merged_;  ///< ground truth and VO of every member, under its fleet id (no batches)
