@@ -288,7 +288,7 @@ std::optional<KeyframeData> ChangePacker::PackNew(const Map& map, KeyframeId id,
   d->parent = dup;
   d->parent_from_cam = base->cam_from_world() * kf->world_from_cam();
   anchored_[id] = dup;
-  ++anchors_sent_;
+  if (!resend) ++anchors_sent_;  // first transmissions only, as the server counts them
   return d;
 }
 

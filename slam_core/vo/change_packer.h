@@ -58,7 +58,8 @@ class ChangePacker {
   /// points it observes that this agent created, also in full.
   void Resend(KeyframeId kf) { resend_.insert(kf); }
 
-  /// Keyframes sent (full or as anchors; resends included) and those sent as anchors.
+  /// Keyframes sent (full or as anchors; resends included), and of the first transmissions
+  /// those sent as anchors (a resent anchor under loss counted twice here, once on the server).
   size_t keyframes_sent() const { return keyframes_sent_; }
   size_t anchors_sent() const { return anchors_sent_; }
   size_t map_points_sent() const { return points_sent_; }
