@@ -33,6 +33,9 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
   ServerMapData data;
   data.reference_kf = reference_kf;
   std::set<KeyframeId> sent;
+  // Held, not looked up again: under the shared structure lock another agent's server mapping
+  // or the redundancy step may erase a keyframe between the two loops below.
+  std::vector<std::shared_ptr<KeyFrame>> sent_kfs;
   // Other agents' keyframes: the agent's own recent covisible keyframes are in its local map
   // already (it made them), and sending them back would double the downlink for nothing.
   // Its own old ones (own_keyframes_after_s) its bounded local map has forgotten: without
@@ -54,11 +57,12 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
     skf.ref_from_cam = ScaledPose(ref_from_world * kf->world_from_cam(), to_vo);
     data.keyframes.push_back(skf);
     sent.insert(id);
+    sent_kfs.push_back(kf);
   }
   if (data.keyframes.empty()) return std::nullopt;
   std::unordered_set<MapPointId> seen;
-  for (const KeyframeId id : sent) {
-    for (const auto& mp : PointsOf(map, *map.keyframe(id))) {
+  for (const auto& kf : sent_kfs) {
+    for (const auto& mp : PointsOf(map, *kf)) {
       if (data.map_points.size() >= options.max_points) break;
       if (!seen.insert(mp->id()).second) continue;
       ServerMapPoint smp;

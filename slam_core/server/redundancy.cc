@@ -41,16 +41,15 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
     const auto n = map.keyframe(nid);
     if (!n || n->bad() || !n->loop_edges().empty() || !IsRedundant(map, *n)) continue;
     // Anchor to the strongest neighbour that stays.
-    KeyframeId base;
+    // Held, not looked up again: a handler's server mapping may erase it meanwhile.
+    std::shared_ptr<KeyFrame> base;
     for (const KeyframeId b : n->BestCovisible(-1)) {
-      if (b != nid && map.keyframe(b)) {
-        base = b;
-        break;
-      }
+      if (b == nid) continue;
+      if ((base = map.keyframe(b))) break;
     }
-    if (!base.valid()) continue;
+    if (!base) continue;
     const auto info = smap->Info(nid);
-    smap->AddAnchor(nid, {base, map.keyframe(base)->cam_from_world() * n->world_from_cam(), n->stamp_ns(),
+    smap->AddAnchor(nid, {base->id(), base->cam_from_world() * n->world_from_cam(), n->stamp_ns(),
                           info ? info->segment : MapId()});
     map.EraseKeyframe(nid);
     smap->EraseInfo(nid);

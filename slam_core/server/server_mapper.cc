@@ -46,8 +46,8 @@ ServerMappingReport ServerMapper::Process(ServerMap* smap, const std::shared_ptr
   }
   if (options_.duplicate_distance_ratio > 0.0) {
     const KeyframeId dup = NearDuplicateOf(map, *kf);
-    if (dup.valid()) {
-      const auto base = map.keyframe(dup);
+    // The duplicate may have been erased since (redundancy step, another agent's mapping).
+    if (const auto base = dup.valid() ? map.keyframe(dup) : nullptr) {
       smap->AddAnchor(kf->id(), {dup, base->cam_from_world() * kf->world_from_cam(), kf->stamp_ns(),
                                  smap->Info(kf->id()) ? smap->Info(kf->id())->segment : MapId()});
       map.EraseKeyframe(kf->id());
