@@ -330,6 +330,13 @@ void AgentComm::PublishStatus() {
   status.mps_sent(static_cast<std::uint32_t>(s.mps_sent));
   status.write_failures(static_cast<std::uint32_t>(s.write_failures));
   status.tracking_state(static_cast<std::uint8_t>(tracking_state_.load()));
+  const ServerHoldings held = source_->Holdings();
+  status.server_data_stamp_ns(held.applied_stamp_ns);
+  // A local map holds far fewer; any beyond the bound go unreported and come in full again.
+  const size_t n = std::min<size_t>(held.keyframes.size(), msg::kMaxHeldKeyframes);
+  for (size_t i = held.keyframes.size() - n; i < held.keyframes.size(); ++i) {
+    status.held_server_kf_ids().push_back(held.keyframes[i].packed());
+  }
   status_writer_->Write(status);
 }
 

@@ -33,6 +33,9 @@ class AgentDataSource {
   /// The server's map data (map sharing).
   virtual void ApplyServerData(ServerMapData data) = 0;
   virtual Counters counters() const = 0;
+  /// The server keyframes the agent holds (reported so the server sends them as poses only);
+  /// none by default (a recording keeps nothing it receives).
+  virtual ServerHoldings Holdings() const { return {}; }
 };
 
 /// The live VO: its changes since the last batch, packed by a ChangePacker. The VO is the
@@ -44,6 +47,7 @@ class VoDataSource : public AgentDataSource {
   bool Resend(KeyframeId id) override;
   void ApplyServerData(ServerMapData data) override { vo_->ApplyServerData(std::move(data)); }
   Counters counters() const override;
+  ServerHoldings Holdings() const override { return vo_->Holdings(); }
 
  private:
   AgentVo* vo_;

@@ -296,6 +296,13 @@ std::optional<AgentStatusData> FromMsg(const msg::AgentStatus& m, std::string* e
   st.mps_sent = m.mps_sent();
   st.write_failures = m.write_failures();
   st.tracking_state = m.tracking_state();
+  if (m.held_server_kf_ids().size() > msg::kMaxHeldKeyframes) return reject("too many held keyframes");
+  st.holdings.applied_stamp_ns = m.server_data_stamp_ns();
+  for (const auto packed : m.held_server_kf_ids()) {
+    KeyframeId id;
+    if (auto e = AnyIdFromMsg(packed, "held keyframe", true, &id); !e.empty()) return reject(e);
+    st.holdings.keyframes.push_back(id);
+  }
   return st;
 }
 

@@ -105,6 +105,7 @@ struct AgentStatusData {
   uint32_t kfs_created = 0, kfs_sent = 0, kfs_acked = 0, kfs_resent = 0, kfs_lost = 0, mps_sent = 0;
   uint32_t write_failures = 0;
   int tracking_state = 0;  ///< 0 not initialized, 1 ok, 2 lost, 3 relocalized
+  ServerHoldings holdings;  ///< the server keyframes it holds (downlink deltas)
 };
 
 /// Rejects another protocol version, agent 0, a reference keyframe or segment of another

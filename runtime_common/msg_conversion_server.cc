@@ -23,10 +23,13 @@ bool Within(const Eigen::Vector3d& v) {
   return v.allFinite() && v.cwiseAbs().maxCoeff() <= kLimits.max_abs_coordinate_m;
 }
 
+bool SendablePose(const ServerKeyframe& kf) {
+  return Within(kf.ref_from_cam.translation()) && kf.ref_from_cam.rotation().coeffs().allFinite();
+}
+
 bool Sendable(const ServerKeyframe& kf) {
   return kf.camera && kf.features && kf.features->size() <= msg::kMaxKeypoints &&
-         kf.features->keypoints.size() == kf.features->descriptors.size() && Within(kf.ref_from_cam.translation()) &&
-         kf.ref_from_cam.rotation().coeffs().allFinite();
+         kf.features->keypoints.size() == kf.features->descriptors.size() && SendablePose(kf);
 }
 
 bool Sendable(const ServerMapPoint& mp) { return Within(mp.position_ref); }
@@ -115,12 +118,29 @@ std::string MapDataFromMsg(const msg::ServerToAgent& m, CameraCache* cameras, Se
   if (m.map_points().size() > msg::kMaxMapPointsPerServerMsg) return Str(m.map_points().size()) + " map points (limit 4096)";
   // The reference may be another agent's keyframe the agent tracks against.
   if (auto e = AnyIdFromMsg(m.ref_kf_id(), "reference keyframe", true, &data->reference_kf); !e.empty()) return e;
+  if (m.held_keyframes().size() > msg::kMaxKeyframesPerServerMsg) {
+    return Str(m.held_keyframes().size()) + " held keyframes (limit 16)";
+  }
+  data->stamp_ns = m.stamp_ns();
   std::unordered_map<KeyframeId, size_t> keypoints_of;
   data->keyframes.resize(m.keyframes().size());
   for (size_t i = 0; i < m.keyframes().size(); ++i) {
     ServerKeyframe& kf = data->keyframes[i];
     if (auto e = KeyframeFromMsg(m.keyframes()[i], cameras, &kf); !e.empty()) return "keyframe " + Str(i) + ": " + e;
     if (!keypoints_of.emplace(kf.id, kf.features->size()).second) return "keyframe " + Str(i) + ": id sent twice";
+  }
+  // Held keyframes: the agent checks their points' keypoint indices on arrival, as for its own.
+  std::unordered_set<KeyframeId> held;
+  for (size_t i = 0; i < m.held_keyframes().size(); ++i) {
+    ServerKeyframe kf;
+    kf.held = true;
+    const auto& h = m.held_keyframes()[i];
+    if (auto e = AnyIdFromMsg(h.id(), "held keyframe", true, &kf.id); !e.empty()) return "held keyframe " + Str(i) + ": " + e;
+    if (auto e = PoseFromMsg(h.ref_from_this(), "ref_from_this", &kf.ref_from_cam); !e.empty()) {
+      return "held keyframe " + Str(i) + ": " + e;
+    }
+    if (keypoints_of.count(kf.id) || !held.insert(kf.id).second) return "held keyframe " + Str(i) + ": id sent twice";
+    data->keyframes.push_back(std::move(kf));
   }
   std::unordered_set<MapPointId> seen;
   data->map_points.resize(m.map_points().size());
@@ -150,6 +170,17 @@ msg::ServerToAgent ToMsg(AgentId agent, int64_t stamp_ns, const std::vector<Keyf
   m.ref_kf_id(data->reference_kf.packed());
   std::unordered_set<KeyframeId> left_out;
   for (const ServerKeyframe& kf : data->keyframes) {
+    if (kf.held) {
+      if (m.held_keyframes().size() >= msg::kMaxKeyframesPerServerMsg || !SendablePose(kf)) {
+        left_out.insert(kf.id);
+        continue;
+      }
+      msg::ServerKeyframePose h;
+      h.id(kf.id.packed());
+      h.ref_from_this(PoseToMsg(kf.ref_from_cam));
+      m.held_keyframes().push_back(h);
+      continue;
+    }
     if (m.keyframes().size() >= msg::kMaxKeyframesPerServerMsg || !Sendable(kf)) {
       left_out.insert(kf.id);
       continue;
@@ -176,7 +207,7 @@ std::optional<ServerMessage> FromMsg(const msg::ServerToAgent& m, AgentId expect
   out.stamp_ns = m.stamp_ns();
   out.ack_stamp = {m.server_epoch(), m.ack_seq(), m.persisted_seq()};
   if (auto e = AcksFromMsg(m, expected_agent, &out); !e.empty()) return reject(e);
-  if (m.keyframes().empty() && m.map_points().empty()) return out;
+  if (m.keyframes().empty() && m.map_points().empty() && m.held_keyframes().empty()) return out;
   ServerMapData data;
   if (auto e = MapDataFromMsg(m, cameras, &data); !e.empty()) return reject(e);
   out.data = std::move(data);

@@ -42,6 +42,8 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                                   {"messages_sent", l.messages_sent},
                                   {"neighbourhoods_sent", l.neighbourhoods_sent},
                                   {"neighbourhoods_deferred", l.neighbourhoods_deferred},
+                                  {"neighbourhood_keyframes_full", l.neighbourhood_keyframes_full},
+                                  {"neighbourhood_keyframes_as_poses", l.neighbourhood_keyframes_as_poses},
                                   {"keyframes_released_incomplete", l.keyframes_released_incomplete},
                                   {"segments", l.segments.size()},
                                   {"leaves", l.leaves},

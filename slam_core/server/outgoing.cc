@@ -9,7 +9,8 @@
 namespace ccm {
 
 std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId agent, KeyframeId reference_kf,
-                                                const NeighbourhoodOptions& options) {
+                                                const NeighbourhoodOptions& options,
+                                                const std::unordered_set<KeyframeId>* held) {
   const auto smap = stack.MapHolding(reference_kf);
   if (!smap) return std::nullopt;
   std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
@@ -52,8 +53,11 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
     ServerKeyframe skf;
     skf.id = id;
     skf.stamp_ns = kf->stamp_ns();
-    skf.camera = kf->camera_ptr();
-    skf.features = kf->features_ptr();
+    skf.held = held != nullptr && held->count(id) > 0;
+    if (!skf.held) {
+      skf.camera = kf->camera_ptr();
+      skf.features = kf->features_ptr();
+    }
     skf.ref_from_cam = ScaledPose(ref_from_world * kf->world_from_cam(), to_vo);
     data.keyframes.push_back(skf);
     sent.insert(id);

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <optional>
+#include <unordered_set>
 
 #include "slam_core/exchange/server_map_data.h"
 #include "slam_core/server/map_stack.h"
@@ -21,7 +22,9 @@ struct NeighbourhoodOptions {
 };
 
 /// nullopt if the server does not know `reference_kf` (not arrived yet) or has nothing to send.
+/// `held`: keyframes the agent holds already (it said so); they go as poses only.
 std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId agent, KeyframeId reference_kf,
-                                                const NeighbourhoodOptions& options);
+                                                const NeighbourhoodOptions& options,
+                                                const std::unordered_set<KeyframeId>* held = nullptr);
 
 }  // namespace ccm

@@ -330,11 +330,12 @@ AgentAcks ServerBackend::TakeAcks(AgentId agent) {
   return out;
 }
 
-std::optional<ServerMapData> ServerBackend::Neighbourhood(AgentId agent, KeyframeId reference_kf) const {
+std::optional<ServerMapData> ServerBackend::Neighbourhood(AgentId agent, KeyframeId reference_kf,
+                                                          const std::unordered_set<KeyframeId>* held) const {
   NeighbourhoodOptions o;
   o.keyframes = options_.neighbourhood_k;
   o.own_keyframes_after_s = options_.share_own_keyframes_after_s;
-  return AgentNeighbourhood(*stack_, agent, reference_kf, o);
+  return AgentNeighbourhood(*stack_, agent, reference_kf, o, held);
 }
 
 BackendStatus ServerBackend::Status() const {

@@ -27,6 +27,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <unordered_set>
 #include <vector>
 
 #include "slam_core/exchange/agent_data.h"
@@ -90,7 +91,9 @@ class ServerBackend {
 
   // Outgoing hooks.
   AgentAcks TakeAcks(AgentId agent);
-  std::optional<ServerMapData> Neighbourhood(AgentId agent, KeyframeId reference_kf) const;
+  /// The agent's neighbourhood; keyframes in `held` (the agent has them) go as poses only.
+  std::optional<ServerMapData> Neighbourhood(AgentId agent, KeyframeId reference_kf,
+                                             const std::unordered_set<KeyframeId>* held = nullptr) const;
 
   // Inspection.
   /// Counters, queue depths, agents, idleness: copies.

@@ -139,7 +139,7 @@ void AgentVo::ProcessJob(const MappingJob& job) {
       mapper_.ApplyServerData(job.map.get(), *job.server);
       SyncRelocalizationIndex();
     }
-    PublishMapperStats();
+    PublishMapperStats(&*job.server);
     return;
   }
   {
@@ -153,13 +153,29 @@ void AgentVo::ProcessJob(const MappingJob& job) {
   AddSample(&stats_.mapping_ms, mapping_samples_++, ms);
 }
 
-void AgentVo::PublishMapperStats() {
+void AgentVo::PublishMapperStats(const ServerMapData* applied) {
+  // Every job may have trimmed server keyframes (the local map bound) or added some.
+  std::vector<KeyframeId> held;
+  if (const auto m = CurrentMap()) {
+    for (const auto& kf : m->keyframes()) {
+      if (kf->from_server()) held.push_back(kf->id());
+    }
+  }
   // Copied after each job so that stats() (the comm thread's heartbeat, progress lines)
   // never waits behind a local BA on mapper_mutex_. Lock order mapper_mutex_ -> stats_mutex_.
   std::lock_guard<std::mutex> lock(stats_mutex_);
+  holdings_.keyframes = std::move(held);
+  // Also when the data was for a replaced segment: it was consumed, and what it carried is
+  // not held (the server then sends it in full again).
+  if (applied) holdings_.applied_stamp_ns = std::max(holdings_.applied_stamp_ns, applied->stamp_ns);
   stats_.mapping = mapper_.stats();
   stats_.trim = mapper_.trim_stats();
   stats_.server = mapper_.server_stats();
+}
+
+ServerHoldings AgentVo::Holdings() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return holdings_;
 }
 
 void AgentVo::SyncRelocalizationIndex() {

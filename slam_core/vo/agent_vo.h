@@ -98,6 +98,10 @@ class AgentVo {
   size_t pending_changes() const { return shared_.changes.size(); }
   std::shared_ptr<Map> map() const;
   AgentVoStats stats() const;
+  /// Any thread: the server keyframes in the current segment's local map after the newest
+  /// mapping job, and the stamp of the newest server data processed (the comm module reports
+  /// both to the server, which then sends those keyframes as poses only).
+  ServerHoldings Holdings() const;
   /// Per tracked frame: its pose composed with the final pose of its reference keyframe
   /// (as ORB-SLAM writes trajectories, so later keyframe refinement improves every frame).
   /// Frames whose keyframe vanished with a discarded segment keep their tracking pose.
@@ -116,7 +120,8 @@ class AgentVo {
   };
   void Enqueue(MappingJob job);
   void ProcessJob(const MappingJob& job);
-  void PublishMapperStats();  // mapping thread, holding mapper_mutex_
+  /// Mapping thread, holding mapper_mutex_; `applied`: the server data just processed.
+  void PublishMapperStats(const ServerMapData* applied = nullptr);
   /// Mapping thread: the relocalization index follows the current segment's keyframes.
   void SyncRelocalizationIndex();
 
@@ -153,6 +158,7 @@ class AgentVo {
   mutable std::mutex stats_mutex_;
   AgentVoStats stats_;
   int64_t mapping_samples_ = 0;  // guarded by stats_mutex_
+  ServerHoldings holdings_;      // guarded by stats_mutex_
 };
 
 }  // namespace ccm

@@ -9,9 +9,16 @@ void IntegrateKeyframes(const ServerMapData& data, const SE3& world_from_ref, Ag
                         const std::shared_ptr<const ScalePyramid>& pyramid, Map* map, LocalMapBound* bound,
                         ServerDataStats* stats, std::set<KeyframeId>* touched) {
   for (const ServerKeyframe& skf : data.keyframes) {
-    if (!skf.features || !skf.camera) continue;
+    const auto existing = map->keyframe(skf.id);
+    if (skf.held && !existing) {
+      // Trimmed since the agent reported holding it: its next report says so and the
+      // server sends it in full again. Its points' observations of it are skipped below.
+      ++stats->keyframes_not_held;
+      continue;
+    }
+    if (!skf.held && (!skf.features || !skf.camera)) continue;
     const SE3 world_from_cam = world_from_ref * skf.ref_from_cam;
-    if (const auto existing = map->keyframe(skf.id)) {
+    if (existing) {
       // The agent's own keyframes keep the VO estimate (the agent stays autonomous);
       // keyframes of other agents follow the server, which optimizes them globally.
       if (skf.id.agent() != own_agent) {

@@ -30,8 +30,11 @@ using testing::MsgMutator;
 constexpr AgentId kFuzzedAgent = 1;
 
 void MutateStatus(MsgMutator& z, msg::AgentStatus* m) {
-  switch (z.rng()() % 8) {
+  switch (z.rng()() % 9) {
     case 0: m->protocol_version(z.Version()); break;
+    case 7: z.Chance(0.5) ? z.Resize(&m->held_server_kf_ids()) : m->server_data_stamp_ns(z.Integer(m->server_data_stamp_ns()));
+      if (!m->held_server_kf_ids().empty()) m->held_server_kf_ids()[0] = z.Id(m->held_server_kf_ids()[0]);
+      break;
     case 1: m->agent_id(z.Chance(0.3) ? 0 : z.OtherAgent(m->agent_id())); break;
     case 2: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
     case 3: m->map_segment_id(z.Id(m->map_segment_id())); break;
@@ -54,6 +57,13 @@ std::string StatusViolation(const msg::AgentStatus& m, const conv::AgentStatusDa
       st.write_failures != m.write_failures() || st.stamp_ns != m.stamp_ns()) {
     return "counters changed";
   }
+  if (st.holdings.applied_stamp_ns != m.server_data_stamp_ns() ||
+      st.holdings.keyframes.size() != m.held_server_kf_ids().size()) {
+    return "holdings changed";
+  }
+  for (size_t i = 0; i < st.holdings.keyframes.size(); ++i) {
+    if (!st.holdings.keyframes[i].valid() || st.holdings.keyframes[i].packed() != m.held_server_kf_ids()[i]) return "held id";
+  }
   return "";
 }
 
@@ -66,6 +76,9 @@ TEST(AgentStatusFuzz, MutatedHeartbeatsAreRefusedWithAMessageOrAcceptedAsSent) {
   base.map_segment_id(MapId::Make(kFuzzedAgent, 1).packed());
   base.kfs_created(45), base.kfs_sent(44), base.kfs_acked(40), base.kfs_resent(2), base.mps_sent(3000);
   base.tracking_state(1);
+  base.server_data_stamp_ns(1'700'000'000'000'000'000);
+  base.held_server_kf_ids().push_back(KeyframeId::Make(2, 17).packed());
+  base.held_server_kf_ids().push_back(KeyframeId::Make(3, 4).packed());
   std::string error;
   ASSERT_TRUE(conv::FromMsg(base, &error)) << error;
 
@@ -162,6 +175,11 @@ TEST(ServerMessageFuzz, MutatedServerMessagesIntoATrackingAgentNeverBreakItsMap)
                                        conv::ToMsg(kFuzzedAgent, 2, {ref->id()}, {}, nullptr)};
   const ServerMapData synthetic = testing::MakeServerMapData(kFuzzedAgent, 5, 500, 300);
   base.push_back(conv::ToMsg(kFuzzedAgent, 3, {KeyframeId::Make(kFuzzedAgent, 1)}, {}, &synthetic));
+  // Downlink deltas: the same neighbourhood with two keyframes the agent holds, as poses only.
+  ServerMapData delta = data;
+  delta.keyframes[0].held = delta.keyframes[1].held = true;
+  base.push_back(conv::ToMsg(kFuzzedAgent, 4, {}, {}, &delta));
+  ASSERT_EQ(base.back().held_keyframes().size(), 2u);
   conv::CameraCache cameras(8);
   std::string error;
   for (const auto& m : base) ASSERT_TRUE(conv::FromMsg(m, kFuzzedAgent, &cameras, &error)) << error;

@@ -2,7 +2,9 @@
 // both camera models, the IDL bounds on sending, and the camera cache.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
+#include <set>
 
 #include <cmath>
 
@@ -254,6 +256,62 @@ TEST(MsgConversion, ServerMessageLeavesOutWhatTheAgentWouldRejectInsteadOfLosing
     EXPECT_NE(mp.id, data.map_points[5].id);
     for (const auto& [kf, index] : mp.observations) EXPECT_NE(kf, far);
   }
+}
+
+TEST(MsgConversion, HeldKeyframesTravelAsPosesOnlyAndTheirObservationsStay) {
+  // Downlink deltas: keyframes the agent holds go as id + pose (a few dozen bytes instead of
+  // tens of kB); points keep their observations of them (the agent checks the index).
+  ServerMapData data = testing::MakeServerMapData(1, 4, 500, 40);
+  data.keyframes[1].held = data.keyframes[3].held = true;
+  const ServerMapData all_full = testing::MakeServerMapData(1, 4, 500, 40);
+  msg::ServerToAgent full_msg = ToMsg(1, 7, {}, {}, &all_full);
+  msg::ServerToAgent m = ToMsg(1, 7, {}, {}, &data);
+  EXPECT_EQ(m.keyframes().size(), 2u);
+  EXPECT_EQ(m.held_keyframes().size(), 2u);
+  msg::ServerToAgentPubSubType type;
+  const auto size = [&](msg::ServerToAgent& x) { return type.getSerializedSizeProvider(&x)(); };
+  EXPECT_LT(size(m), size(full_msg) * 0.7) << "two of four keyframes' features left out";
+  std::string error;
+  const auto back = FromMsg(m, 1, nullptr, &error);
+  ASSERT_TRUE(back && back->data) << error;
+  EXPECT_EQ(back->data->stamp_ns, 7);
+  ASSERT_EQ(back->data->keyframes.size(), 4u);
+  std::set<KeyframeId> held_back;
+  for (const ServerKeyframe& kf : back->data->keyframes) {
+    if (!kf.held) {
+      EXPECT_TRUE(kf.features && kf.camera);
+      continue;
+    }
+    EXPECT_FALSE(kf.features || kf.camera);
+    held_back.insert(kf.id);
+    const auto sent = std::find_if(data.keyframes.begin(), data.keyframes.end(), [&](const auto& k) { return k.id == kf.id; });
+    ASSERT_NE(sent, data.keyframes.end());
+    ExpectSamePose(kf.ref_from_cam, sent->ref_from_cam);
+  }
+  EXPECT_EQ(held_back, (std::set<KeyframeId>{data.keyframes[1].id, data.keyframes[3].id}));
+  ASSERT_EQ(back->data->map_points.size(), data.map_points.size());
+  for (size_t i = 0; i < data.map_points.size(); ++i) EXPECT_EQ(back->data->map_points[i].observations, data.map_points[i].observations);
+  // A held keyframe sent twice, or also in full, is refused.
+  msg::ServerToAgent twice = m;
+  twice.held_keyframes().push_back(twice.held_keyframes()[0]);
+  EXPECT_FALSE(FromMsg(twice, 1, nullptr, &error));
+  EXPECT_NE(error.find("twice"), std::string::npos) << error;
+}
+
+TEST(MsgConversion, StatusCarriesTheAgentsHoldings) {
+  msg::AgentStatus m;
+  m.protocol_version(msg::kProtocolVersion);
+  m.agent_id(3);
+  m.server_data_stamp_ns(42);
+  m.held_server_kf_ids().push_back(KeyframeId::Make(1, 5).packed());
+  m.held_server_kf_ids().push_back(KeyframeId::Make(3, 2).packed());
+  std::string error;
+  const auto st = conv::FromMsg(m, &error);
+  ASSERT_TRUE(st) << error;
+  EXPECT_EQ(st->holdings.applied_stamp_ns, 42);
+  EXPECT_EQ(st->holdings.keyframes, (std::vector<KeyframeId>{KeyframeId::Make(1, 5), KeyframeId::Make(3, 2)}));
+  m.held_server_kf_ids().push_back(0);
+  EXPECT_FALSE(conv::FromMsg(m, &error)) << "id 0 is no keyframe";
 }
 
 TEST(MsgConversion, CameraCacheSharesOneModelPerCalibrationAndStaysBounded) {

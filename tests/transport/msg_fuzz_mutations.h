@@ -12,7 +12,9 @@ namespace ccm::testing {
 inline void MutateServer(MsgMutator& z, msg::ServerToAgent* m) {
   msg::ServerKeyframe* kf = m->keyframes().empty() ? nullptr : &m->keyframes()[z.Index(m->keyframes().size())];
   msg::ServerMapPoint* mp = m->map_points().empty() ? nullptr : &m->map_points()[z.Index(m->map_points().size())];
-  switch (z.rng()() % 12) {
+  msg::ServerKeyframePose* held =
+      m->held_keyframes().empty() ? nullptr : &m->held_keyframes()[z.Index(m->held_keyframes().size())];
+  switch (z.rng()() % 13) {
     case 0: m->protocol_version(z.Version()); break;
     case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
     case 2: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
@@ -24,6 +26,7 @@ inline void MutateServer(MsgMutator& z, msg::ServerToAgent* m) {
     case 8: if (kf && !kf->keypoints().empty()) { auto& k = kf->keypoints()[z.Index(kf->keypoints().size())]; k.x_eighth_px(z.Integer(k.x_eighth_px())); k.octave(z.Chance(0.3) ? z.Integer(k.octave()) : k.octave()); } break;
     case 9: if (kf) z.Chance(0.5) ? z.Resize(&kf->keypoints()) : z.Resize(&kf->descriptors()); break;
     case 10: if (mp) { mp->z_ref(z.Realf(mp->z_ref())); if (!mp->obs_kf_ids().empty()) mp->obs_kf_ids()[0] = z.Id(mp->obs_kf_ids()[0]); } break;
+    case 11: if (held) { z.Chance(0.5) ? held->id(z.Id(held->id())) : z.Pose(&held->ref_from_this()); } else z.Resize(&m->held_keyframes()); break;
     default: if (mp) { z.Chance(0.5) ? z.Resize(&mp->obs_kf_ids()) : z.Resize(&mp->obs_keypoint_index()); if (!mp->obs_keypoint_index().empty()) mp->obs_keypoint_index()[0] = z.Integer(mp->obs_keypoint_index()[0]); } break;
   }
 }

@@ -94,6 +94,29 @@ TEST(AgentNeighbourhood, SendsOtherAgentsCovisibleKeyframesAndTheirPointsInTheRe
   }
 }
 
+TEST(AgentNeighbourhood, KeyframesTheAgentHoldsGoAsPosesOnlyWithTheirPoints) {
+  MapStack stack{MapOptions{}};
+  const auto ids = BuildFusedMap(&stack, 12);
+  NeighbourhoodOptions options;
+  options.keyframes = 3;
+  const auto all = AgentNeighbourhood(stack, 1, ids[10], options);
+  ASSERT_TRUE(all.has_value());
+  ASSERT_GE(all->keyframes.size(), 2u);
+  const std::unordered_set<KeyframeId> held = {all->keyframes[0].id};
+  const auto delta = AgentNeighbourhood(stack, 1, ids[10], options, &held);
+  ASSERT_TRUE(delta.has_value());
+  ASSERT_EQ(delta->keyframes.size(), all->keyframes.size()) << "the same neighbourhood, only cheaper";
+  for (size_t i = 0; i < delta->keyframes.size(); ++i) {
+    const ServerKeyframe& k = delta->keyframes[i];
+    EXPECT_EQ(k.id, all->keyframes[i].id);
+    EXPECT_EQ(k.held, held.count(k.id) > 0);
+    EXPECT_EQ(k.features == nullptr, k.held);
+    EXPECT_EQ(k.camera == nullptr, k.held);
+    EXPECT_LT((k.ref_from_cam.translation() - all->keyframes[i].ref_from_cam.translation()).norm(), 1e-12);
+  }
+  EXPECT_EQ(delta->map_points.size(), all->map_points.size()) << "points follow corrections: they still go";
+}
+
 TEST(AgentNeighbourhood, SendsTheAgentsOwnKeyframesOnlyWhenOlderThanAsked) {
   MapStack stack{MapOptions{}};
   const auto ids = BuildFusedMap(&stack, 12);

@@ -2,6 +2,8 @@
 // keyframe) integrated into the local map while the VO keeps tracking.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include "tests/slam_core/vo/vo_sim_run.h"
 
 namespace ccm {
@@ -46,6 +48,8 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
     }
   }
   for (auto& [id, smp] : points) data.map_points.push_back(smp);
+  data.stamp_ns = 5;
+  EXPECT_EQ(vo.Holdings().applied_stamp_ns, 0) << "nothing from the server yet";
   vo.ApplyServerData(data);
   vo.DrainMapping();
 
@@ -61,6 +65,36 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
   EXPECT_GE(s1.server.observations_added, static_cast<int64_t>(points.size()));
   // Foreign keyframes sharing foreign points are connected in the covisibility graph.
   EXPECT_GT(map->keyframe(KeyframeId::Make(2, 1000))->covisibility().size(), 0u);
+  // What the agent reports holding (the server then sends these as poses only).
+  const ServerHoldings held = vo.Holdings();
+  EXPECT_EQ(held.applied_stamp_ns, 5);
+  EXPECT_EQ(std::set<KeyframeId>(held.keyframes.begin(), held.keyframes.end()),
+            (std::set<KeyframeId>{KeyframeId::Make(2, 1000), KeyframeId::Make(2, 1001), KeyframeId::Make(2, 1002)}));
+
+  // A pose-only keyframe moves the one held; one no longer held is counted and skipped.
+  ServerMapData poses;
+  poses.reference_kf = ref->id();
+  poses.stamp_ns = 6;
+  ServerKeyframe moved;
+  moved.id = KeyframeId::Make(2, 1000);
+  moved.held = true;
+  const SE3 shift(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.05, 0, 0));
+  moved.ref_from_cam = shift * data.keyframes[0].ref_from_cam;
+  ServerKeyframe gone = moved;
+  gone.id = KeyframeId::Make(2, 1999);
+  poses.keyframes = {moved, gone};
+  const auto features_before = map->keyframe(moved.id)->features_ptr();
+  vo.ApplyServerData(poses);
+  vo.DrainMapping();
+  const auto moved_kf = map->keyframe(moved.id);
+  EXPECT_LT((moved_kf->world_from_cam().translation() -
+             (ref->world_from_cam() * moved.ref_from_cam).translation()).norm(), 1e-9);
+  EXPECT_EQ(moved_kf->features_ptr(), features_before) << "a pose-only keyframe keeps what the agent has";
+  EXPECT_EQ(map->keyframe(gone.id), nullptr);
+  EXPECT_EQ(vo.stats().server.keyframes_not_held, 1);
+  EXPECT_EQ(vo.stats().server.keyframes_updated, 1);
+  EXPECT_EQ(vo.Holdings().applied_stamp_ns, 6);
+
   // Nothing received from the server is reported back as an own change.
   const VoChanges after = vo.TakeChanges();
   for (const KeyframeId id : after.keyframes) EXPECT_EQ(id.agent(), 1);
