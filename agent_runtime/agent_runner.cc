@@ -263,6 +263,8 @@ nlohmann::json Summary(const RunOptions& o, const Flight& f, const AgentVoStats&
                             {"server_keyframes_updated", s.server.keyframes_updated},
                             {"server_points_added", s.server.points_added},
                             {"server_points_updated", s.server.points_updated},
+                            {"server_keyframes_not_held", s.server.keyframes_not_held},
+                            {"server_points_not_held", s.server.points_not_held},
                             {"tracking_ms_median", Percentile(s.tracking_ms, 0.5)},
                             {"tracking_ms_p95", Percentile(s.tracking_ms, 0.95)},
                             {"mapping_ms_median", Percentile(s.mapping_ms, 0.5)},

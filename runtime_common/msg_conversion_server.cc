@@ -149,6 +149,20 @@ std::string MapDataFromMsg(const msg::ServerToAgent& m, CameraCache* cameras, Se
     if (auto e = PointFromMsg(m.map_points()[i], keypoints_of, &mp); !e.empty()) return "map point " + Str(i) + ": " + e;
     if (!seen.insert(mp.id).second) return "map point " + Str(i) + ": id sent twice";
   }
+  if (m.held_map_points().size() > msg::kMaxMapPointsPerServerMsg) {
+    return Str(m.held_map_points().size()) + " held map points (limit 4096)";
+  }
+  for (size_t i = 0; i < m.held_map_points().size(); ++i) {
+    const auto& h = m.held_map_points()[i];
+    ServerMapPoint mp;
+    mp.held = true;
+    if (auto e = AnyIdFromMsg(h.id(), "held map point", true, &mp.id); !e.empty()) return "held map point " + Str(i) + ": " + e;
+    if (auto e = PositionFromMsg(h.x_ref(), h.y_ref(), h.z_ref(), &mp.position_ref); !e.empty()) {
+      return "held map point " + Str(i) + ": " + e;
+    }
+    if (!seen.insert(mp.id).second) return "held map point " + Str(i) + ": id sent twice";
+    data->map_points.push_back(std::move(mp));
+  }
   return "";
 }
 
@@ -188,8 +202,18 @@ msg::ServerToAgent ToMsg(AgentId agent, int64_t stamp_ns, const std::vector<Keyf
     m.keyframes().push_back(KeyframeToMsg(kf));
   }
   for (const ServerMapPoint& mp : data->map_points) {
-    if (m.map_points().size() >= msg::kMaxMapPointsPerServerMsg) break;
-    if (Sendable(mp)) m.map_points().push_back(PointToMsg(mp, left_out));
+    if (!Sendable(mp)) continue;
+    if (mp.held) {
+      if (m.held_map_points().size() >= msg::kMaxMapPointsPerServerMsg) continue;
+      msg::ServerMapPointPosition h;
+      h.id(mp.id.packed());
+      h.x_ref(static_cast<float>(mp.position_ref.x()));
+      h.y_ref(static_cast<float>(mp.position_ref.y()));
+      h.z_ref(static_cast<float>(mp.position_ref.z()));
+      m.held_map_points().push_back(h);
+    } else if (m.map_points().size() < msg::kMaxMapPointsPerServerMsg) {
+      m.map_points().push_back(PointToMsg(mp, left_out));
+    }
   }
   return m;
 }
@@ -207,7 +231,9 @@ std::optional<ServerMessage> FromMsg(const msg::ServerToAgent& m, AgentId expect
   out.stamp_ns = m.stamp_ns();
   out.ack_stamp = {m.server_epoch(), m.ack_seq(), m.persisted_seq()};
   if (auto e = AcksFromMsg(m, expected_agent, &out); !e.empty()) return reject(e);
-  if (m.keyframes().empty() && m.map_points().empty() && m.held_keyframes().empty()) return out;
+  if (m.keyframes().empty() && m.map_points().empty() && m.held_keyframes().empty() && m.held_map_points().empty()) {
+    return out;
+  }
   ServerMapData data;
   if (auto e = MapDataFromMsg(m, cameras, &data); !e.empty()) return reject(e);
   out.data = std::move(data);

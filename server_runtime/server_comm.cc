@@ -262,14 +262,7 @@ void ServerComm::OnStatus(AgentId agent, const msg::AgentStatus& m) {
     return;
   }
   if (!Admit(agent, "status")) return;
-  AgentState& state = states_[agent];
-  if (st->holdings.applied_stamp_ns != 0) {
-    state.reports_holdings = true;
-    state.held = std::unordered_set<KeyframeId>(st->holdings.keyframes.begin(), st->holdings.keyframes.end());
-    while (!state.sent_since.empty() && state.sent_since.front().first <= st->holdings.applied_stamp_ns) {
-      state.sent_since.pop_front();
-    }
-  }
+  states_[agent].deltas.OnHoldings(st->holdings);
   std::lock_guard<std::mutex> lock(mutex_);
   ApplyStatus(*st, &stats_.agents[agent]);
 }

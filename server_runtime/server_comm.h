@@ -51,6 +51,7 @@
 #include "runtime_common/msg_conversion.h"
 #include "runtime_common/typed_endpoints.h"
 #include "runtime_common/wakeup.h"
+#include "server_runtime/downlink_deltas.h"
 #include "server_runtime/keyframe_reassembly.h"
 #include "server_runtime/server_config.h"
 #include "slam_core/server/server_backend.h"
@@ -67,6 +68,8 @@ struct AgentLink {
   int64_t neighbourhoods_deferred = 0;  ///< publish cycles that kept an undelivered one
   int64_t neighbourhood_keyframes_full = 0;      ///< keyframes sent with their features
   int64_t neighbourhood_keyframes_as_poses = 0;  ///< sent as poses only (the agent holds them)
+  int64_t neighbourhood_points_full = 0;
+  int64_t neighbourhood_points_as_positions = 0;  ///< sent as positions only (the agent holds them)
   int64_t keyframes_released_incomplete = 0;  ///< held the maximum time, some points still missing
   KeyframeId reference_kf;
   MapId segment;
@@ -137,20 +140,8 @@ class ServerComm {
     std::chrono::steady_clock::time_point last_neighbourhood;  ///< when it was written
     std::chrono::steady_clock::time_point last_ack_message;   ///< when the last acks message was written
     uint64_t persisted_sent = 0;  ///< persisted_seq in it
-    /// Downlink deltas (docs/protocol.md): the server keyframes the agent's last status said
-    /// it holds, and the keyframes sent in full since the server message it had integrated
-    /// then (by message stamp). Both count as held. Only once the agent has reported
-    /// integrating something: one that never does (a recording) always gets full keyframes.
-    bool reports_holdings = false;
-    std::unordered_set<KeyframeId> held;
-    std::deque<std::pair<int64_t, std::vector<KeyframeId>>> sent_since;
+    DownlinkDeltas deltas;  ///< what the agent holds of the server's map
   };
-  /// What `st` counts as held, for the next neighbourhood.
-  static std::unordered_set<KeyframeId> HeldBy(const AgentState& st);
-  /// A sent neighbourhood's full keyframes; entries the agent never reports integrating
-  /// expire (kHeldInFlightNs) so a lost message is sent in full again.
-  static void RecordSent(AgentState* st, int64_t stamp_ns, const ServerMapData& data);
-  static constexpr int64_t kHeldInFlightNs = 10'000'000'000;
   /// An agent hears from the acks writer at least this often (epoch, persisted_seq).
   static constexpr std::chrono::seconds kAckHeartbeat{1};
   /// The stamp of the next message to an agent; `with_acks` numbers it.

@@ -58,7 +58,7 @@ void ServerComm::PublishToAgents() {
     };
     const auto kf_ids = take(&st.kf_acks, [](uint64_t v) { return KeyframeId(v); });
     const auto mp_ids = take(&st.mp_acks, [](uint64_t v) { return MapPointId(v); });
-    int sent = 0, shared = 0, deferred = 0, kfs_full = 0, kfs_as_poses = 0;
+    int sent = 0, shared = 0, deferred = 0, kfs_full = 0, kfs_as_poses = 0, points_full = 0, points_as_positions = 0;
     const bool with_acks = !kf_ids.empty() || !mp_ids.empty();
     const bool new_save = persists() && st.persisted_sent != persisted_seq_.load();
     if (with_acks || new_save || now - st.last_ack_message >= kAckHeartbeat) {
@@ -72,15 +72,17 @@ void ServerComm::PublishToAgents() {
       const bool delivered = writers.neighbourhoods->WaitForAcknowledgments(std::chrono::milliseconds(0));
       if (!delivered && now - st.last_neighbourhood < kNeighbourhoodPatience) {
         deferred = 1;
-      } else if (const std::unordered_set<KeyframeId> held = HeldBy(st);
+      } else if (const std::unordered_set<KeyframeId> held = st.deltas.HeldKeyframes();
                  auto data = backend_->Neighbourhood(agent, reference_kf, &held)) {
         st.shared_ref = reference_kf;
         st.last_neighbourhood = now;
         const int64_t stamp = rt::WallClockNs();
+        st.deltas.MarkHeldPoints(&*data);
         if (writers.neighbourhoods->Write(conv::ToMsg(agent, stamp, {}, {}, &*data, NextAckStamp(false)))) {
           ++sent, ++shared;
-          RecordSent(&st, stamp, *data);
+          st.deltas.RecordSent(stamp, *data);
           for (const ServerKeyframe& kf : data->keyframes) ++(kf.held ? kfs_as_poses : kfs_full);
+          for (const ServerMapPoint& mp : data->map_points) ++(mp.held ? points_as_positions : points_full);
         }
       }
     }
@@ -91,24 +93,9 @@ void ServerComm::PublishToAgents() {
     link.neighbourhoods_deferred += deferred;
     link.neighbourhood_keyframes_full += kfs_full;
     link.neighbourhood_keyframes_as_poses += kfs_as_poses;
+    link.neighbourhood_points_full += points_full;
+    link.neighbourhood_points_as_positions += points_as_positions;
   }
-}
-
-std::unordered_set<KeyframeId> ServerComm::HeldBy(const AgentState& st) {
-  if (!st.reports_holdings) return {};
-  std::unordered_set<KeyframeId> held = st.held;
-  for (const auto& [stamp, ids] : st.sent_since) held.insert(ids.begin(), ids.end());
-  return held;
-}
-
-void ServerComm::RecordSent(AgentState* st, int64_t stamp_ns, const ServerMapData& data) {
-  if (!st->reports_holdings) return;
-  while (!st->sent_since.empty() && st->sent_since.front().first < stamp_ns - kHeldInFlightNs) st->sent_since.pop_front();
-  std::vector<KeyframeId> full;
-  for (const ServerKeyframe& kf : data.keyframes) {
-    if (!kf.held) full.push_back(kf.id);
-  }
-  if (!full.empty()) st->sent_since.emplace_back(stamp_ns, std::move(full));
 }
 
 conv::ServerAckStamp ServerComm::NextAckStamp(bool with_acks) {

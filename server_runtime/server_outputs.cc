@@ -44,6 +44,8 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                                   {"neighbourhoods_deferred", l.neighbourhoods_deferred},
                                   {"neighbourhood_keyframes_full", l.neighbourhood_keyframes_full},
                                   {"neighbourhood_keyframes_as_poses", l.neighbourhood_keyframes_as_poses},
+                                  {"neighbourhood_points_full", l.neighbourhood_points_full},
+                                  {"neighbourhood_points_as_positions", l.neighbourhood_points_as_positions},
                                   {"keyframes_released_incomplete", l.keyframes_released_incomplete},
                                   {"segments", l.segments.size()},
                                   {"leaves", l.leaves},

@@ -31,6 +31,9 @@ struct ServerMapPoint {
   Eigen::Vector3d position_ref = Eigen::Vector3d::Zero();  ///< in the reference keyframe's frame
   OrbDescriptor descriptor{};
   std::vector<std::pair<KeyframeId, int>> observations;  ///< (keyframe, keypoint index)
+  /// The agent holds this point already: only id and position travel (no descriptor, no
+  /// observations; downlink deltas, docs/protocol.md).
+  bool held = false;
 };
 
 struct ServerMapData {
@@ -57,6 +60,7 @@ struct ServerDataStats {
   int64_t keyframes_not_held = 0;  ///< a pose for a keyframe the local map no longer has
   int64_t points_added = 0;
   int64_t points_updated = 0;
+  int64_t points_not_held = 0;  ///< a position for a point the local map no longer has
   int64_t observations_added = 0;
 };
 

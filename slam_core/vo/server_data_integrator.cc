@@ -41,6 +41,18 @@ void IntegratePoints(const ServerMapData& data, const SE3& world_from_ref, Agent
   for (const ServerMapPoint& smp : data.map_points) {
     const Eigen::Vector3d p_w = world_from_ref * smp.position_ref;
     auto mp = map->map_point(smp.id);
+    if (smp.held) {
+      // Position only: the agent has its descriptor and observations (or dropped it: its
+      // keyframe comes in full again once the agent no longer reports holding it).
+      if (!mp) {
+        ++stats->points_not_held;
+      } else if (smp.id.agent() != own_agent) {
+        mp->SetPosition(p_w);
+        map->UpdateMapPointAppearance(smp.id);
+        ++stats->points_updated;
+      }
+      continue;
+    }
     if (!mp) {
       if (smp.observations.empty()) continue;
       mp = std::make_shared<MapPoint>(smp.id, p_w, smp.observations.front().first, smp.descriptor);

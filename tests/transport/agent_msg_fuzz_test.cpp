@@ -175,11 +175,14 @@ TEST(ServerMessageFuzz, MutatedServerMessagesIntoATrackingAgentNeverBreakItsMap)
                                        conv::ToMsg(kFuzzedAgent, 2, {ref->id()}, {}, nullptr)};
   const ServerMapData synthetic = testing::MakeServerMapData(kFuzzedAgent, 5, 500, 300);
   base.push_back(conv::ToMsg(kFuzzedAgent, 3, {KeyframeId::Make(kFuzzedAgent, 1)}, {}, &synthetic));
-  // Downlink deltas: the same neighbourhood with two keyframes the agent holds, as poses only.
+  // Downlink deltas: the same neighbourhood with two keyframes and half the points the agent
+  // holds, as poses and positions only.
   ServerMapData delta = data;
   delta.keyframes[0].held = delta.keyframes[1].held = true;
+  for (size_t i = 0; i < delta.map_points.size(); i += 2) delta.map_points[i].held = true;
   base.push_back(conv::ToMsg(kFuzzedAgent, 4, {}, {}, &delta));
   ASSERT_EQ(base.back().held_keyframes().size(), 2u);
+  ASSERT_FALSE(base.back().held_map_points().empty());
   conv::CameraCache cameras(8);
   std::string error;
   for (const auto& m : base) ASSERT_TRUE(conv::FromMsg(m, kFuzzedAgent, &cameras, &error)) << error;

@@ -298,6 +298,38 @@ TEST(MsgConversion, HeldKeyframesTravelAsPosesOnlyAndTheirObservationsStay) {
   EXPECT_NE(error.find("twice"), std::string::npos) << error;
 }
 
+TEST(MsgConversion, HeldPointsTravelAsPositionsOnly) {
+  ServerMapData data = testing::MakeServerMapData(1, 3, 200, 50);
+  for (int i = 0; i < 30; ++i) data.map_points[i].held = true;
+  msg::ServerToAgent m = ToMsg(1, 9, {}, {}, &data);
+  EXPECT_EQ(m.map_points().size(), 20u);
+  EXPECT_EQ(m.held_map_points().size(), 30u);
+  std::string error;
+  const auto back = FromMsg(m, 1, nullptr, &error);
+  ASSERT_TRUE(back && back->data) << error;
+  ASSERT_EQ(back->data->map_points.size(), 50u);
+  int held = 0;
+  for (const ServerMapPoint& p : back->data->map_points) {
+    const auto sent = std::find_if(data.map_points.begin(), data.map_points.end(), [&](const auto& q) { return q.id == p.id; });
+    ASSERT_NE(sent, data.map_points.end());
+    EXPECT_EQ(p.held, sent->held);
+    EXPECT_LT((p.position_ref - sent->position_ref).norm(), 1e-5 * sent->position_ref.norm());
+    if (p.held) {
+      ++held;
+      EXPECT_TRUE(p.observations.empty());
+    } else {
+      EXPECT_EQ(p.observations, sent->observations);
+    }
+  }
+  EXPECT_EQ(held, 30);
+  msg::ServerToAgent twice = m;
+  msg::ServerMapPointPosition again = twice.held_map_points()[0];
+  again.id(twice.map_points()[0].id());  // also sent in full
+  twice.held_map_points().push_back(again);
+  EXPECT_FALSE(FromMsg(twice, 1, nullptr, &error));
+  EXPECT_NE(error.find("twice"), std::string::npos) << error;
+}
+
 TEST(MsgConversion, StatusCarriesTheAgentsHoldings) {
   msg::AgentStatus m;
   m.protocol_version(msg::kProtocolVersion);

@@ -14,7 +14,7 @@ inline void MutateServer(MsgMutator& z, msg::ServerToAgent* m) {
   msg::ServerMapPoint* mp = m->map_points().empty() ? nullptr : &m->map_points()[z.Index(m->map_points().size())];
   msg::ServerKeyframePose* held =
       m->held_keyframes().empty() ? nullptr : &m->held_keyframes()[z.Index(m->held_keyframes().size())];
-  switch (z.rng()() % 13) {
+  switch (z.rng()() % 14) {
     case 0: m->protocol_version(z.Version()); break;
     case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
     case 2: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
@@ -27,6 +27,7 @@ inline void MutateServer(MsgMutator& z, msg::ServerToAgent* m) {
     case 9: if (kf) z.Chance(0.5) ? z.Resize(&kf->keypoints()) : z.Resize(&kf->descriptors()); break;
     case 10: if (mp) { mp->z_ref(z.Realf(mp->z_ref())); if (!mp->obs_kf_ids().empty()) mp->obs_kf_ids()[0] = z.Id(mp->obs_kf_ids()[0]); } break;
     case 11: if (held) { z.Chance(0.5) ? held->id(z.Id(held->id())) : z.Pose(&held->ref_from_this()); } else z.Resize(&m->held_keyframes()); break;
+    case 12: if (!m->held_map_points().empty()) { auto& h = m->held_map_points()[z.Index(m->held_map_points().size())]; z.Chance(0.5) ? h.id(z.Id(h.id())) : h.z_ref(z.Realf(h.z_ref())); } z.Resize(&m->held_map_points()); break;
     default: if (mp) { z.Chance(0.5) ? z.Resize(&mp->obs_kf_ids()) : z.Resize(&mp->obs_keypoint_index()); if (!mp->obs_keypoint_index().empty()) mp->obs_keypoint_index()[0] = z.Integer(mp->obs_keypoint_index()[0]); } break;
   }
 }

@@ -83,6 +83,14 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
   ServerKeyframe gone = moved;
   gone.id = KeyframeId::Make(2, 1999);
   poses.keyframes = {moved, gone};
+  ServerMapPoint held_point;  // a position only, for a point the agent has
+  held_point.id = data.map_points[0].id;
+  held_point.held = true;
+  held_point.position_ref = data.map_points[0].position_ref + Eigen::Vector3d(0, 0.02, 0);
+  ServerMapPoint unknown_point = held_point;
+  unknown_point.id = MapPointId::Make(2, 999999);
+  poses.map_points = {held_point, unknown_point};
+  const size_t observations_before = map->map_point(held_point.id)->num_observations();
   const auto features_before = map->keyframe(moved.id)->features_ptr();
   vo.ApplyServerData(poses);
   vo.DrainMapping();
@@ -94,6 +102,10 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
   EXPECT_EQ(vo.stats().server.keyframes_not_held, 1);
   EXPECT_EQ(vo.stats().server.keyframes_updated, 1);
   EXPECT_EQ(vo.Holdings().applied_stamp_ns, 6);
+  EXPECT_LT((map->map_point(held_point.id)->position() - ref->world_from_cam() * held_point.position_ref).norm(), 1e-9);
+  EXPECT_EQ(map->map_point(held_point.id)->num_observations(), observations_before) << "observations stay";
+  EXPECT_EQ(map->map_point(unknown_point.id), nullptr) << "no descriptor: nothing to make a point of";
+  EXPECT_EQ(vo.stats().server.points_not_held, 1);
 
   // Nothing received from the server is reported back as an own change.
   const VoChanges after = vo.TakeChanges();
