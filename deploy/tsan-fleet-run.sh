@@ -36,10 +36,6 @@ status=0
   "${link[@]}" >"$OUT/fleet.log" 2>&1 || { echo "ccm_fleet exited $? (see $OUT/fleet.log)"; status=1; }
 wait "$server" || { echo "ccm_server exited $? (see $OUT/server.log)"; status=1; }
 trap - EXIT
-if compgen -G "$OUT/tsan.*" >/dev/null; then
-  echo "ThreadSanitizer reports:"
-  cat "$OUT"/tsan.*
-  status=1
-fi
+"$(dirname "${BASH_SOURCE[0]}")/tsan-reports.sh" "$OUT" || status=1
 echo "fleet run: $(tail -1 "$OUT/fleet.log" | grep -o '"kfs_acked":[0-9]*,"kfs_resent":[0-9]*,"kfs_sent":[0-9]*,"kfs_unacked":[0-9]*' || echo 'no fleet summary'); exit $status"
 exit "$status"

@@ -45,11 +45,7 @@ for i in 0 1; do
 done
 wait "$server" || { echo "ccm_server exited $? (see $OUT/server.log)"; status=1; }
 trap - EXIT
-if compgen -G "$OUT/tsan.*" >/dev/null; then
-  echo "ThreadSanitizer reports:"
-  cat "$OUT"/tsan.*
-  status=1
-fi
+"$(dirname "${BASH_SOURCE[0]}")/tsan-reports.sh" "$OUT" || status=1
 # The agents' JSON summaries: keyframes made and lost (sent but never acknowledged).
 kfs=$(grep -a -h -o '"keyframes_created":[0-9]*\|"keyframes_lost":[0-9]*' "$OUT"/agent*.log | tr -d '"' | tr '\n' ' ' || true)
 echo "live run: $FRAMES frames per agent, $polls map view polls, ${kfs:-no agent summary found}; exit $status"
