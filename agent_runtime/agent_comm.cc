@@ -187,6 +187,7 @@ void AgentComm::PackChanges() {
   stats_.pack_ms_max = std::max(stats_.pack_ms_max, ms);
   stats_.deferred = counters.deferred;
   stats_.kfs_sent_as_anchors = counters.anchors_sent;
+  stats_.anchors_resent_in_full = counters.anchors_resent_in_full;
   stats_.pack_ms_total += ms;
   ++stats_.packs;
 }
@@ -344,6 +345,7 @@ nlohmann::json LinkSummaryJson(const AgentComm& comm) {
   const AgentCommStats c = comm.Stats();
   return {{"kfs_sent", c.kfs_sent},
           {"kfs_sent_as_anchors", c.kfs_sent_as_anchors},
+          {"anchors_resent_in_full", c.anchors_resent_in_full},
           {"kfs_resent", c.kfs_resent},
           {"kfs_resent_by_gap_rule", c.kfs_resent_gap},
           {"kfs_acked", c.kfs_acked},

@@ -35,6 +35,7 @@ namespace ccm::agent {
 struct AgentCommStats {
   std::uint64_t kfs_sent = 0;          ///< first transmissions
   std::uint64_t kfs_sent_as_anchors = 0;  ///< of those, near-duplicates sent as pose anchors only
+  std::uint64_t anchors_resent_in_full = 0;  ///< of those, resent in full under loss
   std::uint64_t kfs_resent = 0;
   std::uint64_t kfs_acked = 0;
   std::uint64_t kfs_unacked = 0;

@@ -22,6 +22,7 @@ AgentDataSource::Counters VoDataSource::counters() const {
   c.removed_unpersisted = s.trim.removed_unpersisted;
   c.deferred = packer_.deferred();
   c.anchors_sent = packer_.anchors_sent();
+  c.anchors_resent_in_full = packer_.anchors_resent_in_full();
   return c;
 }
 

@@ -21,6 +21,7 @@ class AgentDataSource {
     int64_t removed_unpersisted = 0;    ///< left it acknowledged but not saved by the server yet
     size_t deferred = 0;                ///< held back (keyframe delay): not in a batch yet
     size_t anchors_sent = 0;            ///< keyframes sent as pose anchors only
+    size_t anchors_resent_in_full = 0;  ///< of those, resent in full (what they duplicate was gone)
   };
 
   virtual ~AgentDataSource() = default;

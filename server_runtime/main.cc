@@ -19,9 +19,11 @@
 
 #include "slam_core/common/install_paths.h"
 #include "runtime_common/logging.h"
+#include "runtime_common/process_memory.h"
 #include "runtime_common/runtime_cli.h"
 #include "server_runtime/backend_runner.h"
 #include "server_runtime/map_view_server.h"
+#include "server_runtime/mission_timeline.h"
 #include "server_runtime/server_comm.h"
 #include "server_runtime/server_outputs.h"
 #include "server_runtime/server_status.h"
@@ -248,12 +250,25 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
   server::DaemonInfo daemon;
   daemon.map_file = a.config.save_map;
   int64_t saved_version = StackVersion(*s.backend);
+  // The mission's course, a row per progress period (server_runtime/mission_timeline.h).
+  server::MissionTimeline timeline;
+  server::MissionTimelineFile timeline_file;
+  if (!a.out_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(a.out_dir, ec);
+    std::string error;
+    if (!timeline_file.Open(a.out_dir + "/timeline.jsonl", &error)) spdlog::warn("{}", error);
+  }
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     const auto stats = s.comm->Stats();
     const auto now = Clock::now();
     if (now >= next_progress) {
       LogProgress(*s.backend, stats);
+      if (timeline_file.is_open()) {
+        timeline_file.Append(timeline.Row(stats.elapsed_s, rt::CurrentRssMb(), s.backend->Status(),
+                                          s.backend->Snapshot().Summaries()));
+      }
       next_progress = now + seconds(a.progress_s);
     }
     if (now >= next_status) {

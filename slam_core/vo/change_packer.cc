@@ -279,7 +279,8 @@ std::optional<KeyframeData> ChangePacker::PackNew(const Map& map, KeyframeId id,
   auto d = PackKeyframe(map, id, [this](KeyframeId k) { return IsAnchor(k); });
   const auto base = dup.valid() ? map.keyframe(dup) : nullptr;
   if (!d || !base) {
-    anchored_.erase(id);
+    const bool was_anchor = anchored_.erase(id) > 0;
+    if (d && resend && was_anchor) ++anchors_resent_in_full_;
     return d;
   }
   d->anchor_only = true;

@@ -62,6 +62,9 @@ class ChangePacker {
   /// those sent as anchors (a resent anchor under loss counted twice here, once on the server).
   size_t keyframes_sent() const { return keyframes_sent_; }
   size_t anchors_sent() const { return anchors_sent_; }
+  /// Anchors resent in full because the keyframe they duplicate had left the local map: a
+  /// server that lost the anchor counts such a keyframe as full, one that had it as an anchor.
+  size_t anchors_resent_in_full() const { return anchors_resent_in_full_; }
   size_t map_points_sent() const { return points_sent_; }
   size_t point_updates_skipped() const { return point_updates_skipped_; }
   /// Ignore the keyframe delay at the next Pack.
@@ -100,7 +103,7 @@ class ChangePacker {
   /// Own points each keyframe sent in full linked when it was sent.
   std::unordered_map<KeyframeId, std::unordered_set<MapPointId>> sent_links_;
   MapId segment_;
-  size_t keyframes_sent_ = 0, anchors_sent_ = 0, points_sent_ = 0, point_updates_skipped_ = 0;
+  size_t keyframes_sent_ = 0, anchors_sent_ = 0, anchors_resent_in_full_ = 0, points_sent_ = 0, point_updates_skipped_ = 0;
   int packs_ = 0;
 };
 
