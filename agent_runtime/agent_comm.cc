@@ -119,9 +119,18 @@ bool AgentComm::WaitDrained(std::chrono::milliseconds timeout) {
   // Every keyframe is acknowledged by the server; the points the server does not ack one by
   // one: wait until DDS delivered everything written (a process that exits earlier takes
   // its unacknowledged reliable samples with it).
-  auto left = [&] { return std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()); };
-  return point_writer_->WaitForAcknowledgments(std::max(left(), std::chrono::milliseconds(0))) &&
-         keyframe_writer_->WaitForAcknowledgments(std::max(left(), std::chrono::milliseconds(0)));
+  auto left = [&] { return std::max(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()),
+                                    std::chrono::milliseconds(0)); };
+  // Which writer is stuck, and whether its reader was lost and matched again (then the
+  // whole TRANSIENT_LOCAL history goes out once more): what a drain failure needs to say.
+  const auto waited = [&](auto& writer, const char* what) {
+    if (writer->WaitForAcknowledgments(left())) return true;
+    spdlog::warn("the server's reader has not acknowledged every {} sample written (readers matched now {}, "
+                 "matches so far {}, samples written {})",
+                 what, writer->matched(), writer->matches_ever(), writer->counters().samples.load());
+    return false;
+  };
+  return waited(point_writer_, "point batch") && waited(keyframe_writer_, "keyframe");
 }
 
 void AgentComm::Run() {

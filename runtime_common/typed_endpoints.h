@@ -29,19 +29,26 @@
 
 namespace ccm::rt {
 
-/// Waits until a matched-count reaches a value; shared by writers and readers.
+/// Waits until a matched-count reaches a value; shared by writers and readers. Also counts
+/// the matches ever made: more than the peers means a peer was lost and matched again (a
+/// TRANSIENT_LOCAL writer then sends its whole history to it once more).
 class MatchTracker {
  public:
-  void Update(int current) {
+  void Update(int current, int total) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       matched_ = current;
+      total_ = total;
     }
     cv_.notify_all();
   }
   int matched() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return matched_;
+  }
+  int total() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return total_;
   }
   bool WaitFor(int count, std::chrono::milliseconds timeout) {
     std::unique_lock<std::mutex> lock(mutex_);
@@ -51,7 +58,7 @@ class MatchTracker {
  private:
   mutable std::mutex mutex_;
   std::condition_variable cv_;
-  int matched_ = 0;
+  int matched_ = 0, total_ = 0;
 };
 
 /// With security, the usual reason an endpoint cannot be created: the permissions.
@@ -122,6 +129,7 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
   }
 
   int matched() const { return match_.matched(); }
+  int matches_ever() const { return match_.total(); }
   bool WaitForMatch(int count, std::chrono::milliseconds timeout) { return match_.WaitFor(count, timeout); }
   const TopicCounters& counters() const { return counters_; }
 
@@ -137,7 +145,7 @@ class TypedWriter : public eprosima::fastdds::dds::DataWriterListener {
 
   void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
                               const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {
-    match_.Update(status.current_count);
+    match_.Update(status.current_count, status.total_count);
   }
 
  private:
@@ -238,7 +246,7 @@ class TypedReader : public eprosima::fastdds::dds::DataReaderListener {
   }
   void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
                                const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) override {
-    match_.Update(status.current_count);
+    match_.Update(status.current_count, status.total_count);
   }
   void on_sample_lost(eprosima::fastdds::dds::DataReader*, const eprosima::fastdds::dds::SampleLostStatus& status) override {
     counters_.samples_lost += static_cast<std::uint64_t>(status.total_count_change);

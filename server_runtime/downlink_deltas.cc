@@ -41,7 +41,17 @@ void DownlinkDeltas::RecordSent(int64_t stamp_ns, const ServerMapData& data) {
   }
   if (!full.empty()) sent_since_.emplace_back(stamp_ns, std::move(full));
   for (const ServerMapPoint& mp : data.map_points) {
-    if (!mp.held) points_sent_.insert(mp.id);
+    if (!mp.held) {
+      points_sent_[mp.id] = stamp_ns;
+    } else if (const auto it = points_sent_.find(mp.id); it != points_sent_.end()) {
+      it->second = stamp_ns;
+    }
+  }
+  if (stamp_ns - last_prune_ns_ >= kForgetPointNs / 6) {  // a pass over the set every 10 s
+    last_prune_ns_ = stamp_ns;
+    for (auto it = points_sent_.begin(); it != points_sent_.end();) {
+      it = it->second < stamp_ns - kForgetPointNs ? points_sent_.erase(it) : std::next(it);
+    }
   }
 }
 

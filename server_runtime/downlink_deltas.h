@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -22,6 +23,10 @@ class DownlinkDeltas {
   /// Keyframes sent in full that the agent never reports integrating count as held this long
   /// (a lost neighbourhood is sent in full again after it).
   static constexpr int64_t kInFlightNs = 10'000'000'000;
+  /// A point not in any neighbourhood for this long is forgotten (sent in full if it comes
+  /// back): the set stays as large as the agent's recent surroundings, not the whole map,
+  /// on long missions; an agent has usually trimmed such a point by then anyway.
+  static constexpr int64_t kForgetPointNs = 60'000'000'000;
 
   /// The agent's heartbeat.
   void OnHoldings(const ServerHoldings& holdings);
@@ -31,12 +36,16 @@ class DownlinkDeltas {
   void MarkHeldPoints(ServerMapData* data) const;
   /// A neighbourhood written at `stamp_ns` (the message's stamp, which the agent echoes).
   void RecordSent(int64_t stamp_ns, const ServerMapData& data);
+  /// Points it remembers as sent in full.
+  size_t points_remembered() const { return points_sent_.size(); }
 
  private:
   bool reports_ = false;
   std::unordered_set<KeyframeId> held_;
   std::deque<std::pair<int64_t, std::vector<KeyframeId>>> sent_since_;
-  std::unordered_set<MapPointId> points_sent_;
+  /// Points sent in full, with the stamp of the last neighbourhood that held them.
+  std::unordered_map<MapPointId, int64_t> points_sent_;
+  int64_t last_prune_ns_ = 0;
 };
 
 }  // namespace ccm::server

@@ -13,7 +13,11 @@ double Quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
-double Round(double x, double unit) { return std::round(x / unit) * unit; }
+// To `unit` (0.1, 0.01, ...), dividing by its inverse so that 116.3 prints as 116.3.
+double Round(double x, double unit) {
+  const double per_unit = std::round(1.0 / unit);
+  return std::round(x * per_unit) / per_unit;
+}
 
 }  // namespace
 

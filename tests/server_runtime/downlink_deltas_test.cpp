@@ -86,5 +86,31 @@ TEST(DownlinkDeltas, AFullSendTheAgentNeverReportsExpires) {
   EXPECT_TRUE(deltas.HeldKeyframes().empty());
 }
 
+TEST(DownlinkDeltas, APointOutOfEveryNeighbourhoodForAMinuteIsForgottenAndGoesInFullAgain) {
+  DownlinkDeltas deltas;
+  deltas.OnHoldings({100, {kA, kB, kC}});
+  int64_t t = 200;
+  ServerMapData first;
+  first.map_points = {Point(kP, {kA}), Point(kQ, {kB})};
+  deltas.MarkHeldPoints(&first);
+  deltas.RecordSent(t, first);
+  EXPECT_EQ(deltas.points_remembered(), 2u);
+  // kP stays in the neighbourhoods (as a position), kQ leaves them.
+  const int64_t step = 5'000'000'000;
+  for (; t < 200 + DownlinkDeltas::kForgetPointNs + 3 * step; t += step) {
+    ServerMapData d;
+    d.map_points = {Point(kP, {kA})};
+    deltas.MarkHeldPoints(&d);
+    EXPECT_TRUE(d.map_points[0].held);
+    deltas.RecordSent(t, d);
+  }
+  EXPECT_EQ(deltas.points_remembered(), 1u) << "kQ was forgotten, kP kept";
+  ServerMapData back;
+  back.map_points = {Point(kP, {kA}), Point(kQ, {kB})};
+  deltas.MarkHeldPoints(&back);
+  EXPECT_TRUE(back.map_points[0].held);
+  EXPECT_FALSE(back.map_points[1].held) << "a forgotten point goes in full";
+}
+
 }  // namespace
 }  // namespace ccm::server

@@ -94,7 +94,10 @@ TeamRun RunTeam(const std::string& name, int domain, double drop, int delay_ms) 
   for (size_t i = 0; i < results.size(); ++i) {
     run.logs += "---- process " + std::to_string(i) + " (exit " + std::to_string(results[i].exit_code) + ")\n" +
                 results[i].output.substr(results[i].output.size() > 4000 ? results[i].output.size() - 4000 : 0);
-    EXPECT_EQ(results[i].exit_code, 0) << name << " process " << i;
+    EXPECT_EQ(results[i].exit_code, 0) << name << " process " << i << ", its last output:\n"
+                                       << results[i].output.substr(results[i].output.size() > 6000
+                                                                       ? results[i].output.size() - 6000
+                                                                       : 0);
   }
   run.server = testing::LastJsonLine(results[0].output);
   for (int a = 1; a <= 2; ++a) run.agents.push_back(testing::LastJsonLine(results[a].output));
