@@ -8,7 +8,8 @@
 # each tenth of the mission: server RSS, keyframes (full and anchors) and points, the
 # keyframes' registration + mapping time (median / p95 of that window), the longest global
 # BA of the window and its size, the deepest agent queue; then each agent's link summary
-# (keyframes acknowledged, lost, send -> ack latency). Print bench_feature's ORB time beside
+# (keyframes acknowledged, lost, send -> ack latency) and the accuracy at the end (each
+# agent's per-frame trajectory, and the server map's keyframes, against ground truth). Print bench_feature's ORB time beside
 # the numbers (the machine's speed varies 2x from day to day).
 #
 # usage: tests/bench/long_mission.sh [OUT_DIR]   (env: BUILD_DIR, MISSION_MINUTES=30,
@@ -41,10 +42,10 @@ python3 - "$OUT/hall3.yaml" "$flight_s" <<'PY'
 import re, sys
 path, seconds = sys.argv[1], sys.argv[2]
 text = open(path).read()
-text = re.sub(r"duration_s: 80", f"duration_s: {seconds}", text, count=1)
+text = re.sub(r"duration_s: [0-9.]+", f"duration_s: {seconds}", text)  # every agent's
 open(path, "w").write(text)
 PY
-grep -q "duration_s: $flight_s" "$OUT/hall3.yaml" || { echo "could not set the mission's duration"; exit 2; }
+[ "$(grep -c "duration_s: $flight_s" "$OUT/hall3.yaml")" -eq 3 ] || { echo "could not set the mission's duration"; exit 2; }
 frames=$((flight_s * 20))
 common=(--qos "$QOS" --domain "$DOMAIN" --drop "$DROP" --delay-ms 20)
 # shellcheck disable=SC2086
@@ -55,7 +56,8 @@ pids=()
 for a in $(seq 1 "$AGENTS"); do
   "$BIN/agent_runtime/ccm_agent" "${common[@]}" --log-level warn --agent-id "$a" --sim "$OUT/hall3.yaml" \
     --sim-agent $((a - 1)) --max-frames "$frames" --rate "$RATE" --drain 120 \
-    --ground-truth "$OUT/agent${a}_ground_truth.tum" >"$OUT/agent$a.log" 2>&1 &
+    --ground-truth "$OUT/agent${a}_ground_truth.tum" --trajectory "$OUT/agent${a}_frames.tum" \
+    --keyframes "$OUT/agent${a}_keyframes.tum" >"$OUT/agent$a.log" 2>&1 &
   pids+=($!)
 done
 trap 'kill "${pids[@]}" $server 2>/dev/null || true' EXIT
@@ -63,6 +65,15 @@ status=0
 for p in "${pids[@]}"; do wait "$p" || status=1; done
 wait $server || status=1
 trap - EXIT
+# Accuracy at the end: each agent's own per-frame trajectory (its VO, every lap), and the
+# server map's keyframes of every agent under one alignment.
+own=() map=()
+for a in $(seq 1 "$AGENTS"); do
+  own+=(--gt "$OUT/agent${a}_ground_truth.tum" --est "$OUT/agent${a}_frames.tum" --name "agent$a")
+  map+=(--gt "$OUT/agent${a}_ground_truth.tum" --est "$OUT/server/agent${a}_keyframes.tum" --name "agent$a")
+done
+"$BIN/tools/eval/ccm_eval" "${own[@]}" >"$OUT/eval_own_frames.txt" 2>&1 || status=1
+"$BIN/tools/eval/ccm_eval" "${map[@]}" --plot "$OUT/server_map_ate.png" >"$OUT/eval_server_map.txt" 2>&1 || status=1
 
 python3 - "$OUT" "$AGENTS" "$status" "$ROOT/tests/fault_harness" "$RATE" <<'PY'
 import json, pathlib, sys
@@ -95,6 +106,12 @@ for a in range(1, agents + 1):
                  f"acked {link.get('kfs_acked')}, unacked {link.get('kfs_unacked')}, lost {j.get('keyframes_lost')}; "
                  f"send -> ack median {link.get('ack_ms_median', 0):.0f} ms, p95 {link.get('ack_ms_p95', 0):.0f} ms, "
                  f"max {link.get('ack_ms_max', 0):.0f} ms; peak RSS {j.get('footprint', {}).get('peak_rss_mb', 0):.0f} MB")
+for name in ("eval_own_frames", "eval_server_map"):
+    text = (out / f"{name}.txt").read_text() if (out / f"{name}.txt").exists() else ""
+    ate = [l for l in text.splitlines() if l.startswith(("agent", "JOINT"))][:agents + 1]
+    lines.append(("each agent's own per-frame trajectory (ATE m: rmse is column 6)" if name == "eval_own_frames"
+                  else "every agent's keyframes in the server map (joint rmse: last column)") + ":")
+    lines += ["    " + l for l in ate]
 lines.append("exit codes: all 0" if status == 0 else "a process failed (see the logs)")
 (out / "long_mission.md").write_text("\n".join(lines) + "\n")
 print("\n".join(lines))
