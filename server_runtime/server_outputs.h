@@ -4,7 +4,8 @@
 // fusion and loop events with times, place recognition's counts, keyframe counts, timings;
 // written by the replay tool's report code so offline and live runs read the same), map.ply
 // (largest) and map<k>.ply, map_top.png (a panel per map), and server.json (the communication
-// module's per-agent link counters and topic traffic).
+// module's per-agent link counters and topic traffic). While it runs, main.cc appends
+// timeline.jsonl there (mission_timeline.h).
 #pragma once
 
 #include <string>
