@@ -35,17 +35,11 @@ if [ -x "$BIN/tests/slam_core/feature/bench_feature" ]; then
   echo "bench_feature (ORB, 752x480): $("$BIN/tests/slam_core/feature/bench_feature" 2>/dev/null |
     grep 'extract ms/frame' | tail -1 | sed 's/^ *//')" | tee "$OUT/bench_feature.txt"
 fi
-# hall3 with every agent's loop flown for the whole mission (the simulator repeats a closed path).
+# hall3 with every agent's loop flown for the whole mission.
 flight_s=$((MINUTES * 60))
-"$BIN/tests/sim/ccm_sim" --dump hall3 >"$OUT/hall3.yaml"
-python3 - "$OUT/hall3.yaml" "$flight_s" <<'PY'
-import re, sys
-path, seconds = sys.argv[1], sys.argv[2]
-text = open(path).read()
-text = re.sub(r"duration_s: [0-9.]+", f"duration_s: {seconds}", text)  # every agent's
-open(path, "w").write(text)
-PY
-[ "$(grep -c "duration_s: $flight_s" "$OUT/hall3.yaml")" -eq 3 ] || { echo "could not set the mission's duration"; exit 2; }
+# shellcheck source=../fault_harness/long_hall3.sh
+source "$ROOT/tests/fault_harness/long_hall3.sh"
+write_long_hall3 "$BIN" "$OUT/hall3.yaml" "$flight_s"
 frames=$((flight_s * 20))
 common=(--qos "$QOS" --domain "$DOMAIN" --drop "$DROP" --delay-ms 20)
 # shellcheck disable=SC2086

@@ -26,17 +26,11 @@ for b in server_runtime/ccm_server agent_runtime/ccm_agent tests/sim/ccm_sim; do
   [ -x "$BIN/$b" ] || { echo "missing $BIN/$b: build first (deploy/build.sh)"; exit 2; }
 done
 rm -rf "$OUT" && mkdir -p "$OUT"
-# hall3 with agent 0's loop flown for the whole flight (the simulator repeats a closed path).
+# hall3 with agent 0's loop flown for the whole flight.
 flight_s=$((MINUTES * 60))
-"$BIN/tests/sim/ccm_sim" --dump hall3 >"$OUT/hall3.yaml"
-python3 - "$OUT/hall3.yaml" "$flight_s" <<'PY'
-import re, sys
-path, seconds = sys.argv[1], sys.argv[2]
-text = open(path).read()
-text = re.sub(r"duration_s: 80", f"duration_s: {seconds}", text, count=1)
-open(path, "w").write(text)
-PY
-grep -q "duration_s: $flight_s" "$OUT/hall3.yaml" || { echo "could not set the flight's duration"; exit 2; }
+# shellcheck source=long_hall3.sh
+source "$ROOT/tests/fault_harness/long_hall3.sh"
+write_long_hall3 "$BIN" "$OUT/hall3.yaml" "$flight_s"
 frames=$((flight_s * 20))
 
 "$BIN/server_runtime/ccm_server" --qos "$QOS" --domain "$DOMAIN" --map-file "$OUT/stack.ccmmap" \
