@@ -76,9 +76,8 @@ int Fail(const std::string& message, int code = 2) {
   return code;
 }
 
-void LogProgress(const ccm::ServerBackend& backend, const ccm::server::ServerCommStats& comm) {
-  const auto maps = backend.Snapshot().Summaries();
-  const auto status = backend.Status();
+void LogProgress(const ccm::BackendStatus& status, const std::vector<ccm::MapSummary>& maps,
+                 const ccm::server::ServerCommStats& comm) {
   const auto& stats = status.stats;
   const auto& queues = status.queues;
   std::string agents;
@@ -264,11 +263,10 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
     const auto stats = s.comm->Stats();
     const auto now = Clock::now();
     if (now >= next_progress) {
-      LogProgress(*s.backend, stats);
-      if (timeline_file.is_open()) {
-        timeline_file.Append(timeline.Row(stats.elapsed_s, rt::CurrentRssMb(), s.backend->Status(),
-                                          s.backend->Snapshot().Summaries()));
-      }
+      const BackendStatus status = s.backend->Status();
+      const std::vector<MapSummary> maps = s.backend->Snapshot().Summaries();
+      LogProgress(status, maps, stats);
+      if (timeline_file.is_open()) timeline_file.Append(timeline.Row(stats.elapsed_s, rt::CurrentRssMb(), status, maps));
       next_progress = now + seconds(a.progress_s);
     }
     if (now >= next_status) {
@@ -321,7 +319,7 @@ int Shutdown(const ServerArgs& a, Services* s, std::chrono::steady_clock::time_p
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto comm_stats = s->comm->Stats();
   const auto traffic = s->comm->Traffic();
-  LogProgress(backend, comm_stats);
+  LogProgress(backend.Status(), backend.Snapshot().Summaries(), comm_stats);
   int code = 0;
   if (!a.config.save_map.empty() && !SaveMapStack(backend, a.config.save_map, "exit")) code = 1;
   std::string error;

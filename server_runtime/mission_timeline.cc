@@ -3,15 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "slam_core/eval/metrics.h"
+
 namespace ccm::server {
 namespace {
-
-double Quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::floor(q * static_cast<double>(v.size()))));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
 
 // To `unit` (0.1, 0.01, ...), dividing by its inverse so that 116.3 prints as 116.3.
 double Round(double x, double unit) {
@@ -56,8 +51,8 @@ nlohmann::json MissionTimeline::Row(double elapsed_s, double rss_mb, const Backe
           {"anchored", anchored},
           {"map_points", points},
           {"keyframes_in_window", window_ms.size()},
-          {"keyframe_ms_median", Round(Quantile(window_ms, 0.5), 0.01)},
-          {"keyframe_ms_p95", Round(Quantile(window_ms, 0.95), 0.01)},
+          {"keyframe_ms_median", Round(Percentile(window_ms, 0.5), 0.01)},
+          {"keyframe_ms_p95", Round(Percentile(window_ms, 0.95), 0.01)},
           {"global_bas_in_window", window_bas},
           {"global_ba_s_max", Round(ba_max_s, 0.001)},
           {"global_ba_keyframes", ba_keyframes},
