@@ -1,5 +1,7 @@
 #include "slam_core/server/outgoing.h"
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 #include <unordered_set>
 
@@ -7,6 +9,33 @@
 #include "slam_core/server/registration.h"
 
 namespace ccm {
+namespace {
+
+// The agent's own old keyframes near `base` and looking its way, nearest first.
+template <typename OwnOld>
+std::vector<std::pair<double, std::shared_ptr<KeyFrame>>> OwnOldKeyframesNear(const Map& map, const KeyFrame& base,
+                                                                                AgentId agent,
+                                                                                const NeighbourhoodOptions& options,
+                                                                                const OwnOld& own_old) {
+  std::vector<std::pair<double, std::shared_ptr<KeyFrame>>> near;
+  const double depth = MedianSceneDepth(map, base);
+  if (!(depth > 0.0)) return near;
+  const double radius = options.own_nearby_depth_ratio * depth;
+  const double min_cos = std::cos(kNearbyMaxAngleDeg * M_PI / 180.0);
+  const Eigen::Vector3d centre = base.camera_center();
+  const Eigen::Vector3d axis = base.world_from_cam().rotation() * Eigen::Vector3d::UnitZ();
+  for (const auto& kf : map.keyframes()) {
+    if (kf->id().agent() != agent || !own_old(*kf)) continue;
+    const double distance = (kf->camera_center() - centre).norm();
+    if (distance > radius) continue;
+    if ((kf->world_from_cam().rotation() * Eigen::Vector3d::UnitZ()).dot(axis) < min_cos) continue;
+    near.emplace_back(distance, kf);
+  }
+  std::sort(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return near;
+}
+
+}  // namespace
 
 std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId agent, KeyframeId reference_kf,
                                                 const NeighbourhoodOptions& options,
@@ -20,11 +49,16 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
   if (!world_from_ref) return std::nullopt;
   std::shared_ptr<KeyFrame> base = map.keyframe(reference_kf);
   MapId segment;
+  int64_t reference_stamp_ns = 0;
+  bool reference_is_anchor = false;
   if (base) {
     if (const auto info = smap->Info(reference_kf)) segment = info->segment;
+    reference_stamp_ns = base->stamp_ns();
   } else if (const auto anchor = smap->Anchor(reference_kf)) {
     base = map.keyframe(anchor->base);
     segment = anchor->segment;
+    reference_stamp_ns = anchor->stamp_ns;
+    reference_is_anchor = true;
   }
   const auto handler = stack.Handler(agent, segment);
   if (!base || !handler || handler->scale <= 0.0) return std::nullopt;
@@ -42,14 +76,13 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
   // Its own old ones (own_keyframes_after_s) its bounded local map has forgotten: without
   // them, an agent back at a place it flew maps it again. Before any fusion, and without
   // old own keyframes, this is empty and nothing is sent.
+  // Age counts from the reference's own time: an agent back at a place it flew makes its
+  // keyframes there anchors of the first pass's, and the base is then one of those.
   const auto own_old = [&](const KeyFrame& kf) {
     return options.own_keyframes_after_s > 0.0 &&
-           static_cast<double>(base->stamp_ns() - kf.stamp_ns()) * 1e-9 > options.own_keyframes_after_s;
+           static_cast<double>(reference_stamp_ns - kf.stamp_ns()) * 1e-9 > options.own_keyframes_after_s;
   };
-  for (const KeyframeId id : base->BestCovisible(8 * options.keyframes + 1)) {
-    if (id == reference_kf || static_cast<int>(data.keyframes.size()) >= options.keyframes) continue;
-    const auto kf = map.keyframe(id);
-    if (!kf || (id.agent() == agent && !own_old(*kf))) continue;
+  const auto add = [&](KeyframeId id, const std::shared_ptr<KeyFrame>& kf) {
     ServerKeyframe skf;
     skf.id = id;
     skf.stamp_ns = kf->stamp_ns();
@@ -62,6 +95,24 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
     data.keyframes.push_back(skf);
     sent.insert(id);
     sent_kfs.push_back(kf);
+  };
+  std::vector<KeyframeId> candidates;
+  // An anchor's base is the keyframe nearest to the agent of all: with old own keyframes asked
+  // for, it goes first (the agent had it when it made the anchor, so otherwise it has it still).
+  if (reference_is_anchor && options.own_keyframes_after_s > 0.0) candidates.push_back(base->id());
+  for (const KeyframeId id : base->BestCovisible(8 * options.keyframes + 1)) candidates.push_back(id);
+  for (const KeyframeId id : candidates) {
+    if (id == reference_kf || static_cast<int>(data.keyframes.size()) >= options.keyframes) continue;
+    const auto kf = map.keyframe(id);
+    if (!kf || (id.agent() == agent && !own_old(*kf))) continue;
+    add(id, kf);
+  }
+  if (options.own_keyframes_after_s > 0.0 && options.own_nearby_depth_ratio > 0.0 &&
+      static_cast<int>(data.keyframes.size()) < options.keyframes) {
+    for (const auto& [distance, kf] : OwnOldKeyframesNear(map, *base, agent, options, own_old)) {
+      if (static_cast<int>(data.keyframes.size()) >= options.keyframes) break;
+      if (kf->id() != reference_kf && !sent.count(kf->id())) add(kf->id(), kf);
+    }
   }
   if (data.keyframes.empty()) return std::nullopt;
   std::unordered_set<MapPointId> seen;

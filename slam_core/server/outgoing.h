@@ -19,7 +19,17 @@ struct NeighbourhoodOptions {
   size_t max_points = 4096;  ///< cap per message (IDL bound)
   /// > 0: also the agent's own keyframes this much older than its reference keyframe [s].
   double own_keyframes_after_s = 0.0;
+  /// With own_keyframes_after_s: when the covisible ones leave room, also the agent's own old
+  /// keyframes whose camera centre lies within this share of the reference keyframe's scene
+  /// depth of it and that look the same way (within kNearbyMaxAngleDeg), nearest first. An agent
+  /// back at a place it flew before any loop joined the two passes has no covisibility with
+  /// its first pass yet; its trajectory drifted little over one pass, so nearness finds it.
+  /// 0: covisible ones only.
+  double own_nearby_depth_ratio = 0.5;
 };
+
+/// Own old keyframes sent for nearness only look at most this far away from the reference.
+inline constexpr double kNearbyMaxAngleDeg = 30.0;
 
 /// nullopt if the server does not know `reference_kf` (not arrived yet) or has nothing to send.
 /// `held`: keyframes the agent holds already (it said so); they go as poses only.

@@ -151,7 +151,9 @@ struct ServerOptions {
   int neighbourhood_k = 5;  ///< keyframes sent back to an agent (CCM-SLAM default 5)
   /// > 0: the neighbourhood also holds the agent's own keyframes older than this many seconds
   /// before its reference keyframe (its local map forgot them; coming back, it would map the
-  /// place again). 0: other agents' keyframes only (CCM-SLAM). Experimental (issue 30).
+  /// place again; docs/server.md "Repeated passes"). 0: other agents' keyframes only (CCM-SLAM).
+  /// Off by default: on generated scenes an agent whose VO drifts in scale can lock onto the
+  /// scale its old keyframes come back in (one fused map 163 % apart in scale, 2026-11-29).
   double share_own_keyframes_after_s = 0.0;
   std::string Validate() const;
 };

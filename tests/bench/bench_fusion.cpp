@@ -171,6 +171,11 @@ int main(int argc, char** argv) {
                  "redundancy removal: a keyframe goes when this share of its points is seen by >= 3 others")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--share-own-after", replay.server.share_own_keyframes_after_s,
+                 "map sharing also sends an agent its own keyframes this many seconds older than its reference "
+                 "(0: other agents' only)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--record", record_dir, "keep every scene's agent batches in this folder (gen-SEED.ccmrec)");
   app.add_option("--play", play_dir, "replay the batches recorded there instead of flying the VO (server only)");
   app.add_option("--candidate-window", replay.server.place.candidate_window,

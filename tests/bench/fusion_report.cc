@@ -130,7 +130,8 @@ nlohmann::json SceneJson(const SceneResult& r) {
                              {"ate_path_pct", a.vo_ate_path_pct}, {"scale_drift", a.vo_scale_drift},
                              {"first_window_scale", a.vo_first_window_scale}, {"revisits", a.revisits}, {"loops", a.loops},
                              {"revisit_joined", a.revisit_joined}, {"revisit_links", a.true_revisit_links},
-                             {"false_revisit_links", a.false_revisit_links}});
+                             {"false_revisit_links", a.false_revisit_links}, {"server_keyframes", a.server_keyframes},
+                             {"anchored_keyframes", a.anchored_keyframes}});
   }
   return j;
 }
@@ -141,6 +142,8 @@ std::string Report(const std::vector<SceneResult>& results) {
                   "|---|---|---|---|---|---|---|---|---|---|---|\n";
   int q = 0, qf = 0, ff = 0, fl = 0, rev = 0, rev_loop = 0, rev_joined = 0, false_links = 0, fused_scenes = 0, good_ate = 0, good_scale = 0;
   int agents = 0, good_vo = 0, tracked_full = 0;
+  std::size_t full_keyframes = 0, anchored_keyframes = 0;
+  double vo_path_pct_sum = 0.0;
   std::vector<double> to_fusion, pr_ms;
   std::map<std::string, std::pair<int, int>> by_kind;  // measured kind -> (fused, qualifying)
   for (const SceneResult& r : results) {
@@ -166,6 +169,9 @@ std::string Report(const std::vector<SceneResult>& results) {
       ++agents;
       good_vo += a.vo_ate_path_pct >= 0 && a.vo_ate_path_pct <= 1.0 && a.tracked_share > 0.9;
       tracked_full += a.tracked_share >= 0.99;
+      full_keyframes += a.server_keyframes - a.anchored_keyframes;
+      anchored_keyframes += a.anchored_keyframes;
+      vo_path_pct_sum += std::max(0.0, a.vo_ate_path_pct);
     }
     q += sc.qualifying_pairs, qf += sc.qualifying_fused, ff += sc.false_fusions, fl += sc.false_loops;
     rev += scene_rev, rev_loop += scene_rev_loop;
@@ -207,6 +213,9 @@ std::string Report(const std::vector<SceneResult>& results) {
   s += "  scenes whose fused maps agree in scale within 2 %: " + Percent(good_scale, fused_scenes) + "\n";
   s += "  agents whose VO is within 1 % of its path (and tracks > 90 %): " + Percent(good_vo, agents) + " [>= 95 %]\n";
   s += "  agents tracking >= 99 % of their frames: " + Percent(tracked_full, agents) + "\n";
+  s += Format("  agents' VO ATE, mean %% of the path: %.2f\n", agents ? vo_path_pct_sum / agents : 0.0);
+  s += Format("  server keyframes of all agents: %zu in full, %zu anchors (pose only)\n", full_keyframes,
+              anchored_keyframes);
   s += Format("  place recognition per keyframe (mean per scene, median over scenes): %.2f ms [<= 5]\n", Median(pr_ms));
   return s;
 }

@@ -125,6 +125,7 @@ TEST(AgentNeighbourhood, SendsTheAgentsOwnKeyframesOnlyWhenOlderThanAsked) {
   // Stamps are 1 s apart, a keyframe is covisible with 3 on each side: of agent 1's, ids[8]
   // (2 s older) qualifies, ids[12] (newer) does not.
   options.own_keyframes_after_s = 1.5;
+  options.own_nearby_depth_ratio = 0.0;  // covisible ones only
   const auto data = AgentNeighbourhood(stack, 1, ids[10], options);
   ASSERT_TRUE(data.has_value());
   int own = 0;
@@ -134,6 +135,76 @@ TEST(AgentNeighbourhood, SendsTheAgentsOwnKeyframesOnlyWhenOlderThanAsked) {
     EXPECT_EQ(skf.id, ids[8]);
   }
   EXPECT_EQ(own, 1);
+}
+
+TEST(AgentNeighbourhood, AnAnchorReferenceCountsAgeFromItsOwnStampAndSendsItsBaseFirst) {
+  // An agent back at a place it flew 20 s ago: its new keyframe left as an anchor of the first
+  // pass's ids[2] (agent 1, 3 s). Age counts from the anchor (22 s), so the first pass's
+  // keyframes are old, and the base, the nearest of all, goes first (2026-11-29: age counted from
+  // the base made every revisit's neighbourhood empty).
+  MapStack stack{MapOptions{}};
+  const auto ids = BuildFusedMap(&stack, 12);
+  ServerMap& smap = *stack.MapHolding(ids[2]);
+  const KeyframeId anchor = KeyframeId::Make(1, 50);
+  smap.AddAnchor(anchor, KeyframeAnchor{ids[2], SE3(Eigen::Quaterniond::Identity(), {0.05, 0, 0}),
+                                        int64_t{22000000000}, MapId::Make(1, 1)});
+  NeighbourhoodOptions options;
+  options.keyframes = 4;
+  options.own_keyframes_after_s = 10.0;
+  const auto data = AgentNeighbourhood(stack, 1, anchor, options);
+  ASSERT_TRUE(data.has_value());
+  ASSERT_FALSE(data->keyframes.empty());
+  EXPECT_EQ(data->keyframes[0].id, ids[2]);
+  int own = 0;
+  for (const ServerKeyframe& skf : data->keyframes) own += skf.id.agent() == 1;
+  EXPECT_GE(own, 2) << "the base and its covisible first-pass keyframes of agent 1";
+  EXPECT_LT((data->keyframes[0].ref_from_cam.translation() - Eigen::Vector3d(-0.05, 0, 0)).norm(), 1e-9);
+  // Counted from the base's stamp (3 s) nothing of agent 1 would be old.
+  options.own_keyframes_after_s = 25.0;
+  const auto young = AgentNeighbourhood(stack, 1, anchor, options);
+  ASSERT_TRUE(young.has_value());
+  for (const ServerKeyframe& skf : young->keyframes) EXPECT_EQ(skf.id.agent(), 2);
+}
+
+TEST(AgentNeighbourhood, FillsWithTheAgentsOwnOldKeyframesNearTheReferenceNearestFirst) {
+  MapStack stack{MapOptions{}};
+  const auto ids = BuildFusedMap(&stack, 12);
+  NeighbourhoodOptions options;
+  options.keyframes = 12;
+  options.own_keyframes_after_s = 1.5;
+  // The reference ids[10] sits at x = 2.0 m looking at points 5 m away; agent 1's older
+  // keyframes sit at x = 1.6 (covisible), 1.2, 0.8, 0.4 and 0 m. A radius of 0.18 x 5 m = 0.9 m
+  // takes 1.2 m (0.8 m away) and leaves 0.8 m (1.2 m away).
+  options.own_nearby_depth_ratio = 0.18;
+  auto data = AgentNeighbourhood(stack, 1, ids[10], options);
+  ASSERT_TRUE(data.has_value());
+  std::vector<KeyframeId> own;
+  for (const ServerKeyframe& skf : data->keyframes) {
+    if (skf.id.agent() == 1) own.push_back(skf.id);
+  }
+  EXPECT_EQ(own, (std::vector<KeyframeId>{ids[8], ids[6]}));
+  // A radius over the whole row: all, the covisible one first, then nearest first; recent
+  // ones (within 1.5 s) never.
+  options.own_nearby_depth_ratio = 1.0;
+  data = AgentNeighbourhood(stack, 1, ids[10], options);
+  ASSERT_TRUE(data.has_value());
+  own.clear();
+  for (const ServerKeyframe& skf : data->keyframes) {
+    if (skf.id.agent() == 1) own.push_back(skf.id);
+  }
+  EXPECT_EQ(own, (std::vector<KeyframeId>{ids[8], ids[6], ids[4], ids[2], ids[0]}));
+  // Their points go along: the first keyframe's points are seen by no one covisible with ids[10].
+  const Map& map = stack.MapHolding(ids[10])->map();
+  bool first_points_sent = false;
+  for (const ServerMapPoint& p : data->map_points) {
+    first_points_sent |= map.map_point(p.id)->reference_kf() == ids[0];
+  }
+  EXPECT_TRUE(first_points_sent);
+  // The whole budget taken by covisible keyframes: nothing added for nearness.
+  options.keyframes = 2;
+  data = AgentNeighbourhood(stack, 1, ids[10], options);
+  ASSERT_TRUE(data.has_value());
+  EXPECT_EQ(data->keyframes.size(), 2u);
 }
 
 TEST(AgentNeighbourhood, KeyframesErasedWhileItRunsAreLeftOutNotDereferenced) {
