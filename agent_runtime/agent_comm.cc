@@ -114,7 +114,13 @@ bool AgentComm::WaitDrained(std::chrono::milliseconds timeout) {
     std::unique_lock<std::mutex> lock(stats_mutex_);
     auto drained_now = [this] { return stats_.kfs_unacked == 0 && stats_.backlog_bytes == 0 && stats_.deferred == 0; };
     const bool drained = stats_cv_.wait_until(lock, deadline, [&] { return drained_now() || !running_; }) && drained_now();
-    if (!drained) return false;
+    if (!drained) {
+      // Which of the three kept it: a drain failure must say (a flaky lossy test, 2026-11-29).
+      spdlog::warn("not drained: {} keyframes unacknowledged, {} bytes in the write backlog, {} keyframes/points "
+                   "held back by the packer",
+                   stats_.kfs_unacked, stats_.backlog_bytes, stats_.deferred);
+      return false;
+    }
   }
   // Every keyframe is acknowledged by the server; the points the server does not ack one by
   // one: wait until DDS delivered everything written (a process that exits earlier takes
