@@ -60,6 +60,15 @@ std::vector<KeyframeId> BuildFusedMap(MapStack* stack, int keyframes) {
   return ids;
 }
 
+// The keyframes of `agent` in a neighbourhood, in the order sent.
+std::vector<KeyframeId> KeyframesOf(const ServerMapData& data, AgentId agent) {
+  std::vector<KeyframeId> ids;
+  for (const ServerKeyframe& skf : data.keyframes) {
+    if (skf.id.agent() == agent) ids.push_back(skf.id);
+  }
+  return ids;
+}
+
 TEST(AgentNeighbourhood, SendsOtherAgentsCovisibleKeyframesAndTheirPointsInTheReferenceFrame) {
   MapStack stack{MapOptions{}};
   const auto ids = BuildFusedMap(&stack, 12);
@@ -128,13 +137,7 @@ TEST(AgentNeighbourhood, SendsTheAgentsOwnKeyframesOnlyWhenOlderThanAsked) {
   options.own_nearby_depth_ratio = 0.0;  // covisible ones only
   const auto data = AgentNeighbourhood(stack, 1, ids[10], options);
   ASSERT_TRUE(data.has_value());
-  int own = 0;
-  for (const ServerKeyframe& skf : data->keyframes) {
-    if (skf.id.agent() != 1) continue;
-    ++own;
-    EXPECT_EQ(skf.id, ids[8]);
-  }
-  EXPECT_EQ(own, 1);
+  EXPECT_EQ(KeyframesOf(*data, 1), (std::vector<KeyframeId>{ids[8]}));
 }
 
 TEST(AgentNeighbourhood, AnAnchorReferenceCountsAgeFromItsOwnStampAndSendsItsBaseFirst) {
@@ -155,15 +158,13 @@ TEST(AgentNeighbourhood, AnAnchorReferenceCountsAgeFromItsOwnStampAndSendsItsBas
   ASSERT_TRUE(data.has_value());
   ASSERT_FALSE(data->keyframes.empty());
   EXPECT_EQ(data->keyframes[0].id, ids[2]);
-  int own = 0;
-  for (const ServerKeyframe& skf : data->keyframes) own += skf.id.agent() == 1;
-  EXPECT_GE(own, 2) << "the base and its covisible first-pass keyframes of agent 1";
+  EXPECT_GE(KeyframesOf(*data, 1).size(), 2u) << "the base and its covisible first-pass keyframes of agent 1";
   EXPECT_LT((data->keyframes[0].ref_from_cam.translation() - Eigen::Vector3d(-0.05, 0, 0)).norm(), 1e-9);
   // Counted from the base's stamp (3 s) nothing of agent 1 would be old.
   options.own_keyframes_after_s = 25.0;
   const auto young = AgentNeighbourhood(stack, 1, anchor, options);
   ASSERT_TRUE(young.has_value());
-  for (const ServerKeyframe& skf : young->keyframes) EXPECT_EQ(skf.id.agent(), 2);
+  EXPECT_TRUE(KeyframesOf(*young, 1).empty());
 }
 
 TEST(AgentNeighbourhood, FillsWithTheAgentsOwnOldKeyframesNearTheReferenceNearestFirst) {
@@ -178,21 +179,13 @@ TEST(AgentNeighbourhood, FillsWithTheAgentsOwnOldKeyframesNearTheReferenceNeares
   options.own_nearby_depth_ratio = 0.18;
   auto data = AgentNeighbourhood(stack, 1, ids[10], options);
   ASSERT_TRUE(data.has_value());
-  std::vector<KeyframeId> own;
-  for (const ServerKeyframe& skf : data->keyframes) {
-    if (skf.id.agent() == 1) own.push_back(skf.id);
-  }
-  EXPECT_EQ(own, (std::vector<KeyframeId>{ids[8], ids[6]}));
+  EXPECT_EQ(KeyframesOf(*data, 1), (std::vector<KeyframeId>{ids[8], ids[6]}));
   // A radius over the whole row: all, the covisible one first, then nearest first; recent
   // ones (within 1.5 s) never.
   options.own_nearby_depth_ratio = 1.0;
   data = AgentNeighbourhood(stack, 1, ids[10], options);
   ASSERT_TRUE(data.has_value());
-  own.clear();
-  for (const ServerKeyframe& skf : data->keyframes) {
-    if (skf.id.agent() == 1) own.push_back(skf.id);
-  }
-  EXPECT_EQ(own, (std::vector<KeyframeId>{ids[8], ids[6], ids[4], ids[2], ids[0]}));
+  EXPECT_EQ(KeyframesOf(*data, 1), (std::vector<KeyframeId>{ids[8], ids[6], ids[4], ids[2], ids[0]}));
   // Their points go along: the first keyframe's points are seen by no one covisible with ids[10].
   const Map& map = stack.MapHolding(ids[10])->map();
   bool first_points_sent = false;
