@@ -11,6 +11,7 @@ std::string ServerConfig::Validate() const {
   if (max_agents < 1 || max_agents > 64) return "max_agents must be in 1..64 (see resource limits in the QoS file)";
   if (neighbourhood_k < 0 || neighbourhood_k > 16) return "neighbourhood_k must be in 0..16 (idl kMaxKeyframesPerServerMsg)";
   if (!(share_own_keyframes_after_s >= 0.0)) return "share_own_keyframes_after_s must be >= 0 (0: off)";
+  if (global_ba_max_free_keyframes < 0) return "global_ba_max_free_keyframes must be >= 0 (0: the whole map)";
   if (!(liveliness_timeout_s > 0.0)) return "liveliness_timeout_s must be > 0";
   if (!(agent_slot_release_s == 0.0 || agent_slot_release_s >= liveliness_timeout_s)) {
     return "agent_slot_release_s must be 0 (never) or >= liveliness_timeout_s";
@@ -38,6 +39,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("map_sharing", &config->map_sharing);
   r.Get("neighbourhood_k", &config->neighbourhood_k);
   r.Get("share_own_keyframes_after_s", &config->share_own_keyframes_after_s);
+  r.Get("global_ba_max_free_keyframes", &config->global_ba_max_free_keyframes);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);
   r.Get("agent_slot_release_s", &config->agent_slot_release_s);
   r.Get("vocabulary", &config->vocabulary);

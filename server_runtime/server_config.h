@@ -3,6 +3,8 @@
 
 #include <string>
 
+#include "slam_core/server/server_options.h"
+
 namespace ccm::server {
 
 struct ServerConfig {
@@ -19,6 +21,7 @@ struct ServerConfig {
   bool map_sharing = true;           // send each agent the k keyframes most covisible with its reference KF
   int neighbourhood_k = 5;           // that k (CCM-SLAM: 5)
   double share_own_keyframes_after_s = 0.0;  // > 0: also an agent's own keyframes this much older than its reference (experimental)
+  int global_ba_max_free_keyframes = ServerOptions{}.optimization.global_ba_max_free_keyframes;  // a loop or fusion in a bigger map: BA of its region (0: whole map)
   double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)
   double agent_slot_release_s = 600.0;  // silent this long: a new agent beyond max_agents takes its slot (0: never)
   std::string vocabulary;            // bag-of-words vocabulary file; empty: the built-in simulator one

@@ -195,6 +195,27 @@ std::vector<bool> ClassifyObservations(const BundleProblem& problem, const Bundl
 
 }  // namespace
 
+const char* BaLinearSolverName(BaLinearSolver solver) {
+  switch (solver) {
+    case BaLinearSolver::kAuto: return "auto";
+    case BaLinearSolver::kSparseSchur: return "sparse";
+    case BaLinearSolver::kIterativeSchur: return "iterative";
+    case BaLinearSolver::kDenseSchur: return "dense";
+  }
+  return "?";
+}
+
+bool ParseBaLinearSolver(const std::string& name, BaLinearSolver* solver) {
+  for (const BaLinearSolver s : {BaLinearSolver::kAuto, BaLinearSolver::kSparseSchur, BaLinearSolver::kIterativeSchur,
+                                 BaLinearSolver::kDenseSchur}) {
+    if (name == BaLinearSolverName(s)) {
+      *solver = s;
+      return true;
+    }
+  }
+  return false;
+}
+
 std::string BundleAdjusterOptions::Validate() const {
   if (robust_iterations < 0 || refine_iterations < 0) return "iterations must be >= 0";
   if (robust_iterations + refine_iterations == 0) return "at least one iteration is needed";

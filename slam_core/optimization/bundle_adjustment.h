@@ -54,6 +54,10 @@ int ClassifyObservations(const CameraModel& camera, const std::vector<PointObser
 /// SPARSE_SCHUR (SuiteSparse when Ceres has it, else Eigen's sparse Cholesky).
 enum class BaLinearSolver { kAuto, kSparseSchur, kIterativeSchur, kDenseSchur };
 inline constexpr int kDenseSchurMaxFreePoses = 40;
+/// "auto", "sparse", "iterative", "dense" (benchmarks' and configs' spelling).
+const char* BaLinearSolverName(BaLinearSolver solver);
+/// The solver of that name; false for an unknown name.
+bool ParseBaLinearSolver(const std::string& name, BaLinearSolver* solver);
 
 /// Shared by local and global BA. Pass 1 runs `robust_iterations` with a Huber loss. If
 /// reject_outliers, observations with chi2 > threshold (or unprojectable) are dropped and

@@ -1,10 +1,11 @@
 #include "slam_core/server/global_ba.h"
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <unordered_map>
 
 #include "slam_core/common/stopwatch.h"
-#include "slam_core/optimization/bundle_adjustment.h"
 
 namespace ccm {
 namespace {
@@ -15,34 +16,56 @@ struct Snapshot {
   opt::BundleProblem problem;
   std::vector<KeyframeId> kf_ids;
   std::vector<MapPointId> point_ids;
+  std::vector<KeyframeId> untouched;  ///< in the map at the snapshot but not in the problem (a region's outside)
+  size_t free_keyframes = 0;
   uint64_t generation = 0;
 };
 
-Snapshot TakeSnapshot(const ServerMap& smap, int min_observations) {
+// `region`: the free keyframes (null: all, the oldest fixed as the gauge); keyframes that
+// see their points enter fixed.
+Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, const std::unordered_set<KeyframeId>* region) {
   Snapshot s;
   s.generation = smap.generation();
   const Map& map = smap.map();
   std::unordered_map<KeyframeId, int> index;
   std::unordered_map<const CameraModel*, int> cameras;
-  std::vector<std::shared_ptr<KeyFrame>> kfs = map.keyframes();  // sorted: the oldest is the gauge
-  for (const auto& kf : kfs) {
+  std::vector<std::shared_ptr<KeyFrame>> kfs;  // problem pose k is kfs[k]
+  const auto add_pose = [&](const std::shared_ptr<KeyFrame>& kf, bool fixed) {
     const auto cam = cameras.emplace(&kf->camera(), static_cast<int>(s.problem.cameras.size()));
     if (cam.second) s.problem.cameras.push_back(kf->camera_ptr());
     opt::PoseBlock pose;
     pose.id = kf->id().packed();
     pose.world_from_cam = kf->world_from_cam();
-    pose.fixed = s.problem.poses.empty();
+    pose.fixed = fixed;
     pose.camera_index = cam.first->second;
-    index.emplace(kf->id(), static_cast<int>(s.problem.poses.size()));
+    const int k = static_cast<int>(s.problem.poses.size());
+    index.emplace(kf->id(), k);
     s.problem.poses.push_back(pose);
     s.kf_ids.push_back(kf->id());
+    kfs.push_back(kf);
+    return k;
+  };
+  for (const auto& kf : map.keyframes()) {  // sorted: the oldest is the gauge
+    if (!region) {
+      add_pose(kf, s.problem.poses.empty());
+    } else if (region->count(kf->id())) {
+      add_pose(kf, false);
+    }
   }
+  s.free_keyframes = s.kf_ids.size();
   for (const auto& mp : map.map_points()) {
     const auto obs = mp->observations();
+    if (region && std::none_of(obs.begin(), obs.end(), [&](const auto& o) { return region->count(o.first) > 0; })) {
+      continue;
+    }
     std::vector<opt::Observation> mine;
     for (const auto& [kf_id, idx] : obs) {
-      const auto it = index.find(kf_id);
-      if (it == index.end()) continue;
+      auto it = index.find(kf_id);
+      if (it == index.end()) {
+        const auto periphery = region ? map.keyframe(kf_id) : nullptr;
+        if (!periphery) continue;
+        it = index.emplace(kf_id, add_pose(periphery, true)).first;
+      }
       const KeyFrame& kf = *kfs[it->second];
       if (idx < 0 || static_cast<size_t>(idx) >= kf.num_keypoints()) continue;
       const Keypoint& k = kf.features().keypoints[idx];
@@ -61,10 +84,65 @@ Snapshot TakeSnapshot(const ServerMap& smap, int min_observations) {
     s.point_ids.push_back(mp->id());
     s.problem.observations.insert(s.problem.observations.end(), mine.begin(), mine.end());
   }
+  if (region) {
+    for (const auto& kf : map.keyframes()) {
+      if (!index.count(kf->id())) s.untouched.push_back(kf->id());
+    }
+  }
   return s;
 }
 
 }  // namespace
+
+opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options, const std::atomic<bool>* abort) {
+  opt::BundleAdjusterOptions ba = opt::GlobalBaDefaults();
+  ba.robust_iterations = options.iterations;
+  ba.reject_outliers = true;
+  ba.refine_iterations = options.iterations;
+  ba.num_threads = options.threads;
+  ba.linear_solver = options.linear_solver;
+  ba.abort = abort;
+  return ba;
+}
+
+std::vector<size_t> DropGrossOutliers(opt::BundleProblem* problem, const GlobalBaOptions& options) {
+  // Gross outliers (a point far off its ray, or at the camera centre) carry no information
+  // and make the first iterations chase them: leave them out (the caller erases them).
+  std::vector<size_t> dropped;
+  std::vector<opt::Observation> kept;
+  for (size_t i = 0; i < problem->observations.size(); ++i) {
+    const opt::Observation& ob = problem->observations[i];
+    const double chi2 = opt::ObservationChi2(*problem, ob);
+    if (chi2 >= 0.0 && chi2 <= options.gross_outlier_chi2) {
+      kept.push_back(ob);
+    } else {
+      dropped.push_back(i);
+    }
+  }
+  problem->observations.swap(kept);
+  return dropped;
+}
+
+std::unordered_set<KeyframeId> CovisibleRegion(const Map& map, const std::vector<KeyframeId>& seeds, size_t max_free) {
+  std::unordered_set<KeyframeId> region;
+  std::vector<KeyframeId> hop;
+  for (const KeyframeId id : seeds) {
+    if (region.size() < max_free && map.keyframe(id) && region.insert(id).second) hop.push_back(id);
+  }
+  while (!hop.empty() && region.size() < max_free) {
+    std::vector<KeyframeId> next;
+    for (const KeyframeId id : hop) {
+      const auto kf = map.keyframe(id);
+      if (!kf) continue;
+      for (const KeyframeId n : kf->BestCovisible(std::numeric_limits<int>::max())) {  // strongest first
+        if (region.size() >= max_free) break;
+        if (map.keyframe(n) && region.insert(n).second) next.push_back(n);
+      }
+    }
+    hop.swap(next);
+  }
+  return region;
+}
 
 const char* GlobalBaOutcomeName(GlobalBaReport::Outcome outcome) {
   switch (outcome) {
@@ -89,41 +167,32 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
       r.outcome = GlobalBaReport::Outcome::kStale;
       return r;
     }
-    snap = TakeSnapshot(*smap, options.min_observations);
+    std::unordered_set<KeyframeId> region;
+    const bool regional = options.max_free_keyframes > 0 && !options.region_seeds.empty() &&
+                          smap->map().num_keyframes() > static_cast<size_t>(options.max_free_keyframes);
+    if (regional) region = CovisibleRegion(smap->map(), options.region_seeds, options.max_free_keyframes);
+    snap = TakeSnapshot(*smap, options.min_observations, regional && !region.empty() ? &region : nullptr);
   }
   r.snapshot_s = SecondsSince(t0);
   r.keyframes = static_cast<int>(snap.kf_ids.size());
+  r.free_keyframes = static_cast<int>(snap.free_keyframes);
   r.points = static_cast<int>(snap.point_ids.size());
   r.observations = static_cast<int>(snap.problem.observations.size());
   if (snap.problem.observations.empty() || snap.kf_ids.size() < 2) return r;
 
   t0 = Clock::now();
-  // Gross outliers (a point far off its ray, or at the camera centre) carry no information
-  // and make the first iterations chase them: leave them out; they are erased afterwards.
   std::vector<std::pair<KeyframeId, MapPointId>> gross;
   {
-    std::vector<opt::Observation> kept;
-    for (const opt::Observation& ob : snap.problem.observations) {
-      const double chi2 = opt::ObservationChi2(snap.problem, ob);
-      if (chi2 >= 0.0 && chi2 <= options.gross_outlier_chi2) {
-        kept.push_back(ob);
-      } else {
-        gross.emplace_back(snap.kf_ids[ob.pose_index], snap.point_ids[ob.point_index]);
-      }
+    const std::vector<opt::Observation> all = snap.problem.observations;
+    for (const size_t i : DropGrossOutliers(&snap.problem, options)) {
+      gross.emplace_back(snap.kf_ids[all[i].pose_index], snap.point_ids[all[i].point_index]);
     }
-    r.observations_dropped = static_cast<int>(snap.problem.observations.size() - kept.size());
-    snap.problem.observations.swap(kept);
+    r.observations_dropped = static_cast<int>(gross.size());
   }
   const std::vector<opt::PoseBlock> poses_before = snap.problem.poses;
   const std::vector<opt::PointBlock> points_before = snap.problem.points;
   r.initial_rmse_px = opt::ReprojectionRmsePx(snap.problem);
-  opt::BundleAdjusterOptions ba = opt::GlobalBaDefaults();
-  ba.robust_iterations = options.iterations;
-  ba.reject_outliers = true;
-  ba.refine_iterations = options.iterations;
-  ba.num_threads = options.threads;
-  ba.abort = abort;
-  const opt::OptimizationSummary s = opt::BundleAdjust(&snap.problem, ba);
+  const opt::OptimizationSummary s = opt::BundleAdjust(&snap.problem, GlobalBaSolverOptions(options, abort));
   r.solve_s = SecondsSince(t0);
   r.iterations = s.iterations;
   r.message = s.message;
@@ -141,9 +210,14 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   }
   Map& map = smap->map();
   std::unordered_map<KeyframeId, SE3> corrections;  // world-frame delta T_ba * T_snapshot^-1
+  std::unordered_set<KeyframeId> optimized;  // free in the problem
   for (size_t k = 0; k < snap.kf_ids.size(); ++k) {
-    corrections.emplace(snap.kf_ids[k], snap.problem.poses[k].world_from_cam * poses_before[k].world_from_cam.inverse());
+    const bool fixed = snap.problem.poses[k].fixed;  // the gauge, or a region's periphery: exactly unmoved
+    corrections.emplace(snap.kf_ids[k],
+                        fixed ? SE3() : snap.problem.poses[k].world_from_cam * poses_before[k].world_from_cam.inverse());
+    if (!fixed || k == 0) optimized.insert(snap.kf_ids[k]);
   }
+  for (const KeyframeId id : snap.untouched) corrections.emplace(id, SE3());  // outside the region: stays
   const auto in_snapshot_kf = [&corrections](KeyframeId id) { return corrections.count(id) > 0; };
   std::vector<KeyframeId> settled;
   for (const auto& kf : map.keyframes()) {
@@ -151,7 +225,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     if (!anc.valid()) continue;
     if (anc != kf->id()) ++r.keyframes_added_meanwhile;
     kf->SetWorldFromCam(corrections.at(anc) * kf->world_from_cam());
-    settled.push_back(kf->id());
+    if (optimized.count(anc)) settled.push_back(kf->id());
   }
   std::unordered_map<MapPointId, size_t> in_snapshot;
   for (size_t p = 0; p < snap.point_ids.size(); ++p) in_snapshot.emplace(snap.point_ids[p], p);

@@ -10,7 +10,10 @@
 #include <atomic>
 #include <memory>
 #include <string>
+#include <unordered_set>
+#include <vector>
 
+#include "slam_core/optimization/bundle_adjustment.h"
 #include "slam_core/server/server_map.h"
 
 namespace ccm {
@@ -23,12 +26,33 @@ struct GlobalBaOptions {
   /// Observations whose squared whitened error exceeds this before the BA are left out
   /// (gross outliers: ~40 px at level 0).
   double gross_outlier_chi2 = 1600.0;
+  opt::BaLinearSolver linear_solver = opt::BaLinearSolver::kAuto;
+  /// A map with more keyframes than this (0: no limit) is optimized only around
+  /// `region_seeds` (the keyframes of the loop or fusion that asked for the BA): the nearest
+  /// max_free_keyframes by covisibility, breadth first, are free; the keyframes that see
+  /// their points hold them in place, the rest of the map is not touched. The cost of a full
+  /// BA grows with the cube of the keyframes where most of them see each other (bench_server:
+  /// 7 s per iteration at 2,000 keyframes); the region's stays bounded. Without seeds the
+  /// whole map is optimized (the final BA of a run, a BA asked for by hand).
+  int max_free_keyframes = 0;
+  std::vector<KeyframeId> region_seeds;
 };
+
+/// The solver settings RunGlobalBundleAdjustment uses (a robust pass, outlier rejection, a
+/// plain pass of `iterations` each); bench_server times the same.
+opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options, const std::atomic<bool>* abort);
+/// Leaves out the observations whose chi2 before the BA exceeds options.gross_outlier_chi2 (or
+/// that do not project); returns their indices in the problem as it was.
+std::vector<size_t> DropGrossOutliers(opt::BundleProblem* problem, const GlobalBaOptions& options);
+/// The keyframes a regional BA frees: `seeds` (those in the map), then their covisible
+/// keyframes, hop by hop, strongest links first, until `max_free` are taken.
+std::unordered_set<KeyframeId> CovisibleRegion(const Map& map, const std::vector<KeyframeId>& seeds, size_t max_free);
 
 struct GlobalBaReport {
   enum class Outcome { kApplied, kAborted, kStale, kFailed, kEmpty } outcome = Outcome::kEmpty;
   MapId map;
   int keyframes = 0, points = 0, observations = 0;
+  int free_keyframes = 0;  ///< of `keyframes`, those optimized (all but the fixed periphery of a region)
   int keyframes_added_meanwhile = 0;
   int observations_dropped = 0;  ///< gross outliers left out
   int iterations = 0;

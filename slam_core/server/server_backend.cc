@@ -232,7 +232,23 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
   DetectionOutcome outcome = detection_.Handle(d, Elapsed());
   if (outcome.event) {
     if (outcome.forget.valid()) scheduler_.ForgetGlobalBa(outcome.forget);
-    if (outcome.optimize.valid()) scheduler_.RequestGlobalBa(outcome.optimize);
+    if (outcome.optimize.valid()) {
+      {
+        std::lock_guard<std::mutex> lock(ba_regions_mutex_);
+        BaRegion& region = ba_regions_[outcome.optimize];
+        region.seeds.push_back(d.query);
+        region.seeds.push_back(d.candidate);
+        if (outcome.forget.valid()) {  // the absorbed map's wish goes with its keyframes
+          const auto absorbed = ba_regions_.find(outcome.forget);
+          if (absorbed != ba_regions_.end()) {
+            region.full = region.full || absorbed->second.full;
+            region.seeds.insert(region.seeds.end(), absorbed->second.seeds.begin(), absorbed->second.seeds.end());
+            ba_regions_.erase(absorbed);
+          }
+        }
+      }
+      scheduler_.RequestGlobalBa(outcome.optimize);
+    }
   }
   scheduler_.ReleaseGlobalBaHold();
   if (!outcome.event) return;
@@ -243,7 +259,13 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
   AddEvent(std::move(*outcome.event));
 }
 
-void ServerBackend::ScheduleGlobalBa(MapId map) { scheduler_.RequestGlobalBa(map); }
+void ServerBackend::ScheduleGlobalBa(MapId map) {
+  {
+    std::lock_guard<std::mutex> lock(ba_regions_mutex_);
+    ba_regions_[map].full = true;
+  }
+  scheduler_.RequestGlobalBa(map);
+}
 
 bool ServerBackend::RunOptimizationOnce(std::chrono::milliseconds timeout) { return RunOptimization(timeout, true); }
 
@@ -261,10 +283,19 @@ bool ServerBackend::RunOptimization(std::chrono::milliseconds timeout, bool resp
 
 void ServerBackend::RunGlobalBa(MapId map) {
   GlobalBaReport r;
+  BaRegion region;
+  {
+    std::lock_guard<std::mutex> lock(ba_regions_mutex_);
+    const auto it = ba_regions_.find(map);
+    if (it != ba_regions_.end()) region = std::move(it->second), ba_regions_.erase(it);
+  }
   if (const auto smap = stack_->GetMap(map)) {
     GlobalBaOptions o;
     o.iterations = options_.optimization.global_ba_iterations;
     o.threads = options_.optimization.global_ba_threads;
+    o.linear_solver = options_.optimization.global_ba_solver;
+    o.max_free_keyframes = options_.optimization.global_ba_max_free_keyframes;
+    if (!region.full) o.region_seeds = region.seeds;  // none: the whole map
     r = RunGlobalBundleAdjustment(smap, o, scheduler_.abort_flag());
   }
   const bool applied = r.outcome == GlobalBaReport::Outcome::kApplied;
@@ -275,6 +306,12 @@ void ServerBackend::RunGlobalBa(MapId map) {
   const auto pause = applied ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
                                    options_.optimization.global_ba_pause_factor * seconds))
                              : Clock::duration::zero();
+  if (retry) {  // the same wish again
+    std::lock_guard<std::mutex> lock(ba_regions_mutex_);
+    BaRegion& again = ba_regions_[map];
+    again.full = again.full || region.full;
+    again.seeds.insert(again.seeds.end(), region.seeds.begin(), region.seeds.end());
+  }
   scheduler_.GlobalBaDone(map, retry, pause);
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -292,7 +329,8 @@ void ServerBackend::RunGlobalBa(MapId map) {
   e.map = map;
   e.keyframes = r.keyframes;
   e.seconds = seconds;
-  e.detail = std::to_string(r.points) + " points, " + std::to_string(r.iterations) + " iterations, rmse " +
+  e.detail = (r.free_keyframes < r.keyframes ? std::to_string(r.free_keyframes) + " of them free (a region), " : "") +
+             std::to_string(r.points) + " points, " + std::to_string(r.iterations) + " iterations, rmse " +
              std::to_string(r.initial_rmse_px) + " -> " + std::to_string(r.final_rmse_px) + " px, " +
              std::to_string(r.keyframes_added_meanwhile) + " keyframes added meanwhile";
   AddEvent(e);

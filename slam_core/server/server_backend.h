@@ -17,7 +17,7 @@
 // Lock order (docs/architecture.md): a stage's map work follows server_map.h (MapStack's
 // mutex a leaf; structure mutexes of two maps in ascending id; Map internals; tables). The
 // scheduler's mutexes (backend_scheduler.h) are never held while a stage works on a map.
-// The facade's own mutexes (acks_mutex_, stats_mutex_, callback_mutex_) are leaves: each is
+// The facade's own mutexes (acks_mutex_, stats_mutex_, callback_mutex_, ba_regions_mutex_) are leaves: each is
 // held only to copy or add a value, never together with another lock, never across a call.
 #pragma once
 
@@ -126,6 +126,15 @@ class ServerBackend {
 
   mutable std::mutex acks_mutex_;  // leaf
   std::map<AgentId, AgentAcks> acks_;
+
+  // Where the next global BA of a map looks first: the keyframes of the loops and fusions
+  // that asked for it (GlobalBaOptions::region_seeds); `full` after ScheduleGlobalBa.
+  struct BaRegion {
+    bool full = false;
+    std::vector<KeyframeId> seeds;
+  };
+  mutable std::mutex ba_regions_mutex_;  // leaf
+  std::map<MapId, BaRegion> ba_regions_;
 
   mutable std::mutex stats_mutex_;  // leaf
   BackendStats stats_;

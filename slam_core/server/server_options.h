@@ -7,6 +7,7 @@
 #include <string>
 
 #include "slam_core/map/map.h"
+#include "slam_core/optimization/bundle_adjustment.h"
 #include "slam_core/place_recognition/geometric_verification.h"
 #include "slam_core/place_recognition/keyframe_database.h"
 
@@ -107,6 +108,11 @@ struct OptimizationJobOptions {
   bool global_ba_after_fusion = true;
   int global_ba_iterations = 20;
   int global_ba_threads = 2;
+  opt::BaLinearSolver global_ba_solver = opt::BaLinearSolver::kAuto;
+  /// A loop or fusion in a map above this many keyframes gets a global BA of the region
+  /// around its keyframes only (GlobalBaOptions::max_free_keyframes; 0: always the whole
+  /// map). The final BA of a run is always whole.
+  int global_ba_max_free_keyframes = 0;
   /// After a global BA of a map that took t seconds, the next one of that map waits
   /// factor * t (threaded runs): with many agents, loops and fusions come faster than a
   /// large map's BA, and back-to-back BAs would take the cores registration needs.

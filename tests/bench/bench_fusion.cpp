@@ -131,6 +131,11 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
                                  ? result.stats.place.total_query_ms / static_cast<double>(result.stats.place.queries)
                                  : 0.0;
   out.place = result.stats.place;
+  for (const auto& [kfs, s] : result.stats.global_ba_seconds) {
+    ++out.global_bas;
+    out.global_ba_total_s += s;
+    if (s > out.global_ba_max_s) out.global_ba_max_s = s, out.global_ba_max_keyframes = kfs;
+  }
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
@@ -186,7 +191,18 @@ int main(int argc, char** argv) {
                  "VO start: the two-view motion must beat every rival >= 30 deg away by this cost (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
+  std::string ba_solver = ccm::opt::BaLinearSolverName(replay.server.optimization.global_ba_solver);
+  app.add_option("--ba-max-free", replay.server.optimization.global_ba_max_free_keyframes,
+                 "global BA after a loop or fusion in a map above this many keyframes: only the region around it (0: whole)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--ba-solver", ba_solver, "linear solver of the server's global BA (auto, sparse, iterative, dense)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  if (!ccm::opt::ParseBaLinearSolver(ba_solver, &replay.server.optimization.global_ba_solver)) {
+    std::fprintf(stderr, "bench_fusion: error: unknown --ba-solver %s\n", ba_solver.c_str());
+    return 2;
+  }
 
   std::vector<std::uint64_t> seeds;
   std::string error;

@@ -47,7 +47,9 @@ std::string SceneBlock(const SceneResult& r, bool events) {
   std::string s = Format("seed %llu: %s", static_cast<unsigned long long>(r.scene.seed), r.scene.Summary().c_str());
   if (!r.error.empty()) return s + "\n  error: " + r.error + "\n";
   const SceneScore& sc = r.score;
-  s += Format("  [%lld frames, %.0f s]\n", static_cast<long long>(r.frames), r.wall_s);
+  s += Format("  [%lld frames, %.0f s; %d global BAs, %.1f s, longest %.1f s at %d keyframes]\n",
+              static_cast<long long>(r.frames), r.wall_s, r.global_bas, r.global_ba_total_s, r.global_ba_max_s,
+              r.global_ba_max_keyframes);
   for (const PairScore& p : sc.pairs) {
     if (p.truth.overlaps || p.fused) s += "  pair " + PairLine(p) + "\n";
   }
@@ -103,7 +105,9 @@ nlohmann::json SceneJson(const SceneResult& r) {
   nlohmann::json j = {{"seed", r.scene.seed}, {"summary", r.scene.Summary()}, {"layout", sim::SceneLayoutName(r.scene.layout)},
                       {"agents", r.scene.num_agents}, {"camera", r.scene.camera}, {"textures", r.scene.texture_profile},
                       {"rate_hz", r.scene.rate_hz}, {"motion_blur", r.scene.motion_blur}, {"frames", r.frames},
-                      {"wall_s", r.wall_s}, {"place_recognition_ms", r.place_recognition_ms}, {"error", r.error}};
+                      {"wall_s", r.wall_s}, {"place_recognition_ms", r.place_recognition_ms}, {"error", r.error},
+                      {"global_ba", {{"runs", r.global_bas}, {"total_s", r.global_ba_total_s}, {"max_s", r.global_ba_max_s},
+                                     {"max_keyframes", r.global_ba_max_keyframes}}}};
   const SceneScore& sc = r.score;
   for (const PairScore& p : sc.pairs) {
     const sim::PairTruth& t = p.truth;

@@ -20,6 +20,10 @@ struct SceneResult {
   int64_t frames = 0;
   double wall_s = 0.0;
   double place_recognition_ms = 0.0;  ///< mean per query (database + verification)
+  /// Global BAs applied: how many, their seconds in total, the longest and its keyframes.
+  int global_bas = 0;
+  double global_ba_total_s = 0.0, global_ba_max_s = 0.0;
+  int global_ba_max_keyframes = 0;
   PlaceMatcherStats place;            ///< the place-recognition funnel (where candidates stopped)
   std::vector<MissedPairDiagnosis> missed;  ///< --recall: pairs that never fused, diagnosed
   std::string error;                  ///< the scene could not be replayed

@@ -62,6 +62,11 @@ def totals(scenes):
             ratios.append(worst)
             spreads.append(spread)
         pr_ms.append(s["place_recognition_ms"])
+        ba = s.get("global_ba", {})
+        t["ba_runs"] += ba.get("runs", 0)
+        t["ba_s"] += ba.get("total_s", 0.0)
+        if ba.get("max_s", 0.0) > t["ba_max_s"]:
+            t["ba_max_s"], t["ba_max_kfs"] = ba["max_s"], ba.get("max_keyframes", 0)
     return t, to_fusion, pr_ms, ratios, spreads, by_kind
 
 
@@ -84,13 +89,36 @@ def print_totals(title, scenes):
     print(f"  agents whose VO is within 1 % of its path (and tracks > 90 %): {pct(t['good_vo'], t['agents'])} [>= 95 %]")
     print(f"  agents tracking >= 99 % of their frames: {pct(t['tracked_full'], t['agents'])}")
     print(f"  place recognition per keyframe (mean per scene, median over scenes): {med(pr_ms)} ms [<= 5]")
+    if t["ba_runs"]:
+        print(f"  global BAs: {t['ba_runs']}, {t['ba_s']:.1f} s in total, the longest {t['ba_max_s']:.2f} s "
+              f"({t['ba_max_kfs']} keyframes)")
 
+
+def compare(scenes, others):
+    """Per seed: the worst fused map's joint / VO ATE ratio and the global BA seconds of both runs."""
+    other = {s["seed"]: s for s in others}
+    print("| seed | worst joint/VO (this) | (other) | global BA s (this) | (other) | pairs fused (this) | (other) |")
+    print("|---|---|---|---|---|---|---|")
+    for s in scenes:
+        o = other.get(s["seed"])
+        if not o:
+            continue
+        def cells(x):
+            fused = [m for m in x.get("maps", []) if len(m["agents"]) > 1 and m["joint_ate_m"] >= 0
+                     and m["mean_standalone_ate_m"] > 0]
+            worst = max((m["joint_ate_m"] / m["mean_standalone_ate_m"] for m in fused), default=-1)
+            q = [p for p in x.get("pairs", []) if p["qualifies"]]
+            return (f"{worst:.2f}" if worst >= 0 else "-", f"{x.get('global_ba', {}).get('total_s', 0):.1f}",
+                    f"{sum(p['fused'] for p in q)}/{len(q)}")
+        a, b = cells(s), cells(o)
+        print(f"| {s['seed']} | {a[0]} | {b[0]} | {a[1]} | {b[1]} | {a[2]} | {b[2]} |")
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("results", help="results.jsonl of a bench_fusion run")
     ap.add_argument("--seeds", help="only these seeds, e.g. 1001-1030")
     ap.add_argument("--by", choices=["layout", "textures", "agents"], help="also split the totals by this")
+    ap.add_argument("--against", help="another results.jsonl: per-seed table of both runs")
     args = ap.parse_args()
     try:
         with open(args.results) as f:
@@ -107,6 +135,9 @@ def main():
         print(f"scenes that failed to run (left out): {failed}")
     scenes.sort(key=lambda s: s["seed"])
     print_totals("all", scenes)
+    if args.against:
+        with open(args.against) as f:
+            compare(scenes, [json.loads(l) for l in f if l.strip()])
     if args.by:
         groups = defaultdict(list)
         for s in scenes:

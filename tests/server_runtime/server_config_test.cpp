@@ -51,6 +51,13 @@ TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
   EXPECT_NE(error.find("agent_slot_release_s"), std::string::npos) << error;
   std::ofstream(path) << "agent_slot_release_s: 0\n";
   EXPECT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  // The region of a big map's global BA: a count, 0 for the whole map.
+  std::ofstream(path) << "global_ba_max_free_keyframes: 250\n";
+  ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  EXPECT_EQ(c.global_ba_max_free_keyframes, 250);
+  std::ofstream(path) << "global_ba_max_free_keyframes: -1\n";
+  EXPECT_FALSE(LoadServerConfig(path, &c, &error));
+  EXPECT_NE(error.find("global_ba_max_free_keyframes"), std::string::npos) << error;
 }
 
 // The config the ccm-server package installs (its @CCM_CONFDIR@ filled in as at install time).

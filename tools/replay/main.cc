@@ -175,6 +175,10 @@ int main(int argc, char** argv) {
                  "(0: other agents' only; experimental)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--ba-max-free", a.replay.server.optimization.global_ba_max_free_keyframes,
+                 "a loop or fusion in a map above this many keyframes gets a global BA of its region only (0: whole map)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-final-ba", a.no_final_ba, "skip the global BA of every map at the end");
   app.add_option("--load-map", a.load_map, "start from a saved map stack");
   app.add_option("--save-map", a.save_map, "save the map stack at the end");

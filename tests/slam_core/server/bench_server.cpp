@@ -1,13 +1,15 @@
 // Benchmark (not a test) of the server back-end on recorded agent streams (ccm_replay
 // --record, or the hall3 recording ServerScenario.Hall3 leaves in the build tree):
 //  1. registration + server mapping ms per keyframe, place recognition ms per keyframe;
-//  2. global BA seconds vs keyframes (100..1000; copies of the team are added to reach 1000);
+//  2. global BA seconds vs keyframes (--ba-sizes; copies of the team are added to reach the largest);
 //  3. how many agents' streams the server keeps up with: N agents (copies of the recorded
 //     team with their own ids, each starting 2 s after the previous) are played at their
 //     recorded rate into the threaded back-end; it keeps up if the backlog stays bounded and
 //     the queues drain within a few seconds after the last batch.
 // Usage: bench_server [--recording FILE] [--agents 3,6,8,10,12] [--speed 1] [--skip-ba]
+//        [--ba-sizes 100,...,2000] [--ba-solver auto|sparse|iterative|dense] [--ba-threads 2]
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -15,7 +17,7 @@
 
 #include "server_runtime/backend_runner.h"
 #include "slam_core/eval/metrics.h"
-#include "slam_core/optimization/bundle_adjustment.h"
+#include "slam_core/server/global_ba.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "tools/replay/batch_recording.h"
 
@@ -25,6 +27,7 @@ using namespace ccm;
 using Clock = std::chrono::steady_clock;
 
 double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
 
 template <typename IdT>
 IdT Remap(IdT id, int group, int team) {
@@ -108,13 +111,24 @@ void RegistrationTimes(const replay::Recording& rec, std::shared_ptr<const Vocab
               static_cast<long long>(r.stats.loops), r.wall_s);
 }
 
-void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabulary> vocab) {
-  // Two copies of the team, no keyframe removal: enough keyframes for 1000.
+void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabulary> vocab,
+                   const std::vector<size_t>& sizes, GlobalBaOptions options,
+                   const std::vector<opt::BaLinearSolver>& solvers, const std::vector<int>& regions,
+                   size_t map_keyframes) {
+  // Copies of the team, no keyframe removal, until the map has the largest size asked for
+  // (hall3's recording: ~550 keyframes per copy).
   ServerOptions o;
   o.redundancy.enabled = false;
   o.mapping.duplicate_distance_ratio = 0.0;
+  o.optimization.global_ba_after_loop = o.optimization.global_ba_after_fusion = false;  // timed below
   ServerBackend backend(vocab, o);
-  for (const auto& [t, b] : Schedule(rec, 2 * static_cast<int>(rec.agents.size()))) {
+  size_t recorded_kfs = 0;  // full ones (anchors do not enter a BA)
+  for (const auto& b : rec.batches) {
+    for (const auto& k : b.keyframes) recorded_kfs += k.anchor_only ? 0 : 1;
+  }
+  const size_t largest = std::max(map_keyframes, sizes.empty() ? 0 : *std::max_element(sizes.begin(), sizes.end()));
+  const int copies = 1 + static_cast<int>(1.5 * largest / std::max<size_t>(1, recorded_kfs));
+  for (const auto& [t, b] : Schedule(rec, copies * static_cast<int>(rec.agents.size()))) {
     backend.Submit(b);
     backend.ProcessAllQueued();
   }
@@ -124,9 +138,11 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
   }
   auto kfs = biggest->map().keyframes();
   std::sort(kfs.begin(), kfs.end(), [](const auto& a, const auto& b) { return a->stamp_ns() < b->stamp_ns(); });
-  std::printf("\n## 2. Global BA vs keyframes (map grown in time order; 10 iterations, 2 threads)\n\n");
-  std::printf("| keyframes | points | observations | wall [s] | CPU [s] |\n|---|---|---|---|---|\n");
-  for (const size_t n : {100, 200, 400, 600, 800, 1000}) {
+  std::printf("\n## 2. Global BA vs keyframes (map grown in time order; the server's global BA: %d robust + %d "
+              "plain iterations, %d threads; gross outliers left out)\n\n",
+              options.iterations, options.iterations, options.threads);
+  std::printf("| keyframes | points | observations | solver | wall [s] | CPU [s] | iterations | RMSE before -> after [px] |\n|---|---|---|---|---|---|---|---|\n");
+  for (const size_t n : sizes) {
     if (n > kfs.size()) {
       std::printf("| %zu | (map has only %zu keyframes) | | | |\n", n, kfs.size());
       continue;
@@ -151,13 +167,44 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
       p.points.push_back({mp->id().packed(), mp->position(), false});
       p.observations.insert(p.observations.end(), obs.begin(), obs.end());
     }
-    opt::BundleAdjusterOptions ba = opt::GlobalBaDefaults();
-    ba.robust_iterations = 10;
+    DropGrossOutliers(&p, options);
+    const double rmse0 = opt::ReprojectionRmsePx(p);
+    for (const opt::BaLinearSolver solver : solvers) {
+      opt::BundleProblem q = p;
+      options.linear_solver = solver;
+      const auto w0 = Clock::now();
+      const double c0 = CpuSeconds();
+      const auto s = opt::BundleAdjust(&q, GlobalBaSolverOptions(options, nullptr));
+      std::printf("| %zu | %zu | %zu | %s | %.2f | %.2f | %d | %.3f -> %.3f |%s\n", n, q.points.size(),
+                  q.observations.size(), opt::BaLinearSolverName(solver), std::chrono::duration<double>(Clock::now() - w0).count(),
+                  CpuSeconds() - c0, s.iterations, rmse0, opt::ReprojectionRmsePx(q), s.usable ? "" : " failed");
+      std::fflush(stdout);
+    }
+  }
+  // What a loop or fusion in a big map gets (GlobalBaOptions::max_free_keyframes): the real
+  // RunGlobalBundleAdjustment around the newest keyframe, one region size after the other on
+  // the same map (each starts where the previous left it).
+  if (regions.empty()) return;
+  std::printf("\n## 2b. Regional global BA on the whole map (%zu keyframes; around its newest keyframe)\n\n",
+              kfs.size());
+  std::printf("| free keyframes (asked) | keyframes in the problem | points | wall [s] | CPU [s] | iterations | RMSE before -> after [px] |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  std::shared_ptr<ServerMap> map;
+  for (const auto& m : backend.Snapshot().maps) {
+    if (m->id() == biggest->id()) map = std::const_pointer_cast<ServerMap>(m);
+  }
+  for (const int free : regions) {
+    GlobalBaOptions o = options;
+    o.linear_solver = solvers.front();
+    o.max_free_keyframes = free;
+    o.region_seeds = {kfs.back()->id()};
     const auto w0 = Clock::now();
     const double c0 = CpuSeconds();
-    const auto s = opt::BundleAdjust(&p, ba);
-    std::printf("| %zu | %zu | %zu | %.2f | %.2f |%s\n", n, p.points.size(), p.observations.size(),
-                std::chrono::duration<double>(Clock::now() - w0).count(), CpuSeconds() - c0, s.usable ? "" : " failed");
+    const GlobalBaReport r = RunGlobalBundleAdjustment(map, o, nullptr);
+    std::printf("| %d (%d) | %d | %d | %.2f | %.2f | %d | %.3f -> %.3f |%s\n", r.free_keyframes, free, r.keyframes,
+                r.points, std::chrono::duration<double>(Clock::now() - w0).count(), CpuSeconds() - c0, r.iterations,
+                r.initial_rmse_px, r.final_rmse_px, r.outcome == GlobalBaReport::Outcome::kApplied ? "" : " not applied");
+    std::fflush(stdout);
   }
 }
 
@@ -208,7 +255,10 @@ int main(int argc, char** argv) {
   std::string recording = CCM_TEST_RECORDING, vocab_path = CCM_SIM_VOCAB_FILE;
   std::vector<int> agents = {3, 6, 8, 10, 12};
   double speed = 1.0;
-  bool skip_ba = false, skip_throughput = false;
+  bool skip_ba = false, skip_throughput = false, skip_registration = false;
+  std::vector<size_t> ba_sizes = {100, 200, 400, 600, 800, 1000};
+  GlobalBaOptions ba;
+  ba.iterations = ServerOptions{}.optimization.global_ba_iterations;
   CLI::App app{"bench_server: server back-end timings on recorded agent streams"};
   app.add_option("--recording", recording, "ccm_replay --record file")->capture_default_str();
   app.add_option("--vocab", vocab_path, "vocabulary the recording was made with")->capture_default_str();
@@ -216,7 +266,27 @@ int main(int argc, char** argv) {
   app.add_option("--speed", speed, "playback speed of the streams (1 = as recorded)")->capture_default_str();
   app.add_flag("--skip-ba", skip_ba, "skip the global BA table");
   app.add_flag("--skip-throughput", skip_throughput, "skip the throughput table");
+  app.add_flag("--skip-registration", skip_registration, "skip the registration table");
+  app.add_option("--ba-sizes", ba_sizes, "keyframe counts of the global BA table")->delimiter(',')->capture_default_str();
+  app.add_option("--ba-iterations", ba.iterations, "iterations of each pass of the global BA")->capture_default_str();
+  app.add_option("--ba-threads", ba.threads, "Ceres threads of the global BA")->capture_default_str();
+  std::vector<int> regions;
+  size_t map_keyframes = 0;
+  app.add_option("--map-keyframes", map_keyframes, "grow the map to at least this many keyframes (default: the largest --ba-sizes)");
+  app.add_option("--ba-regions", regions, "free keyframes of regional global BAs on the whole map (e.g. 100,200,400)")
+      ->delimiter(',');
+  std::vector<std::string> solver_names = {"auto"};
+  app.add_option("--ba-solver", solver_names, "linear solvers of the global BA (auto, sparse, iterative, dense; each size runs each)")
+      ->delimiter(',')
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  std::vector<opt::BaLinearSolver> solvers;
+  for (const std::string& name : solver_names) {
+    if (!opt::ParseBaLinearSolver(name, &solvers.emplace_back())) {
+      std::fprintf(stderr, "bench_server: unknown --ba-solver %s\n", name.c_str());
+      return 2;
+    }
+  }
   std::string error;
   auto rec = replay::LoadRecording(recording, &error);
   if (!rec) {
@@ -231,8 +301,8 @@ int main(int argc, char** argv) {
   }
   auto vocab = std::make_shared<const Vocabulary>(std::move(*loaded));
   std::printf("# bench_server: %s (%zu agents, %zu batches)\n", recording.c_str(), rec->agents.size(), rec->batches.size());
-  RegistrationTimes(*rec, vocab);
-  if (!skip_ba) GlobalBaTimes(*rec, vocab);
+  if (!skip_registration) RegistrationTimes(*rec, vocab);
+  if (!skip_ba) GlobalBaTimes(*rec, vocab, ba_sizes, ba, solvers, regions, map_keyframes);
   if (!skip_throughput) Throughput(*rec, vocab, agents, speed);
   return 0;
 }
