@@ -241,8 +241,7 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
         if (outcome.forget.valid()) {  // the absorbed map's wish goes with its keyframes
           const auto absorbed = ba_regions_.find(outcome.forget);
           if (absorbed != ba_regions_.end()) {
-            region.full = region.full || absorbed->second.full;
-            region.seeds.insert(region.seeds.end(), absorbed->second.seeds.begin(), absorbed->second.seeds.end());
+            region.Add(absorbed->second);
             ba_regions_.erase(absorbed);
           }
         }
@@ -308,9 +307,7 @@ void ServerBackend::RunGlobalBa(MapId map) {
                              : Clock::duration::zero();
   if (retry) {  // the same wish again
     std::lock_guard<std::mutex> lock(ba_regions_mutex_);
-    BaRegion& again = ba_regions_[map];
-    again.full = again.full || region.full;
-    again.seeds.insert(again.seeds.end(), region.seeds.begin(), region.seeds.end());
+    ba_regions_[map].Add(region);
   }
   scheduler_.GlobalBaDone(map, retry, pause);
   {

@@ -132,6 +132,10 @@ class ServerBackend {
   struct BaRegion {
     bool full = false;
     std::vector<KeyframeId> seeds;
+    void Add(const BaRegion& other) {
+      full = full || other.full;
+      seeds.insert(seeds.end(), other.seeds.begin(), other.seeds.end());
+    }
   };
   mutable std::mutex ba_regions_mutex_;  // leaf
   std::map<MapId, BaRegion> ba_regions_;

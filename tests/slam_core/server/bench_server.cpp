@@ -189,10 +189,7 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
               kfs.size());
   std::printf("| free keyframes (asked) | keyframes in the problem | points | wall [s] | CPU [s] | iterations | RMSE before -> after [px] |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
-  std::shared_ptr<ServerMap> map;
-  for (const auto& m : backend.Snapshot().maps) {
-    if (m->id() == biggest->id()) map = std::const_pointer_cast<ServerMap>(m);
-  }
+  const auto map = std::const_pointer_cast<ServerMap>(biggest);  // the bench owns the back-end
   for (const int free : regions) {
     GlobalBaOptions o = options;
     o.linear_solver = solvers.front();
