@@ -133,5 +133,27 @@ TEST(Flood, AnAgentFloodingFreshSegmentsAtTenTimesTheRateStarvesNobody) {
   RecordProperty("ack_p95_ratio_x100", static_cast<int>(100 * p95_ratio));
 }
 
+// What a real flight writes: anchor keyframes (~250 B) between full ones (~20-80 kB) and
+// point batches of 0-300 points. With PREALLOCATED_WITH_REALLOC, Fast DDS 2.9 preallocates a
+// bounded type's slots at its maximum size and each of the 600 history slots stays resident
+// at the largest sample it ever held, so an agent's memory crept up for the whole flight
+// (+0.4 MB/min over an hour, docs/deployment.md "long flight"; this flood: +5.2 MB over its
+// last 40 %). The shipped profile (DYNAMIC) allocates each sample at its size: flat.
+TEST(Flood, SamplesOfMixedSizesLeaveTheWriterHistoryFlat) {
+  const std::string dir = ::testing::TempDir() + "/flood_mixed";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto results = testing::RunConcurrently(
+      {{CCM_FLOODER, "--id", "9", "--rate", "200", "--duration", "25", "--mixed-sizes", "--qos",
+        std::string(CCM_QOS_DIR) + "/wifi.xml", "--domain", "213"}},
+      dir + "/run", std::chrono::seconds(120));
+  ASSERT_EQ(results[0].exit_code, 0) << results[0].output;
+  const nlohmann::json flooder = testing::LastJsonLine(results[0].output);
+  ASSERT_TRUE(flooder.is_object()) << results[0].output;
+  EXPECT_GT(flooder["keyframes"].get<int>(), 3 * 600) << "the history must have been refilled";
+  EXPECT_EQ(flooder["writes_refused"].get<int>(), 0);
+  EXPECT_LT(flooder["rss_at_end_mb"].get<double>() - flooder["rss_midway_mb"].get<double>(), 1.5) << flooder.dump();
+}
+
 }  // namespace
 }  // namespace ccm

@@ -6,10 +6,14 @@
 // Writes that the reliable writer refused (history full) are counted, not retried: a
 // flooder does not care. Prints one JSON object when --duration is over, with the process's
 // memory at 60 % of the flood and at the end: the writers' DDS histories are bounded
-// by the QoS profile, so a flood (or a long flight) must not grow it.
+// by the QoS profile, so a flood (or a long flight) must not grow it. --mixed-sizes sends
+// what a real flight sends: every other keyframe anchor-sized (no keypoints), full ones of
+// 500-2000 keypoints and point batches of 0-300 points, so the history's slots see samples
+// of different sizes (a history pool that keeps each slot at its largest sample grows then).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <iostream>
 #include <thread>
 
@@ -31,11 +35,11 @@ constexpr int kPointsPerKeyframe = 100;
 
 // The points keyframe `index` links to (synthetic::MakeKeyframe's own_mp_base + offsets),
 // observed by that keyframe only, in its segment.
-msg::MapPointBatch PointsOf(uint16_t agent, uint64_t index, const msg::KeyframeFull& kf) {
+msg::MapPointBatch PointsOf(uint16_t agent, uint64_t index, const msg::KeyframeFull& kf, int num_points) {
   msg::MapPointBatch batch;
   batch.protocol_version(msg::kProtocolVersion);
   batch.agent_id(agent);
-  for (int i = 0; i < kPointsPerKeyframe; ++i) {
+  for (int i = 0; i < num_points; ++i) {
     msg::MapPointFull p = ccm::synthetic::MakeMapPoint(agent, index * 1000 + static_cast<uint64_t>(i), 0);
     p.ref_kf_id(kf.id());
     p.segment_counter(ccm::MapId(kf.segment_id()).counter());
@@ -46,13 +50,16 @@ msg::MapPointBatch PointsOf(uint16_t agent, uint64_t index, const msg::KeyframeF
   return batch;
 }
 
+// Deterministic sizes spread over [0, n) for --mixed-sizes (Knuth's multiplicative hash).
+int Spread(uint64_t index, int n) { return static_cast<int>((index * 2654435761ULL >> 7) % static_cast<uint64_t>(n)); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   rt::SessionOptions options;
   int id = 9;
   double rate = 26.0, duration_s = 20.0;
-  bool fresh_segments = false, wait_match = false;
+  bool fresh_segments = false, wait_match = false, mixed_sizes = false;
   CLI::App app{"ccm_flooder: one agent flooding the server with keyframes (flood test)"};
   app.add_option("--domain", options.domain_id, "DDS domain id");
   app.add_option("--qos", options.qos_file, "QoS profiles file");
@@ -60,6 +67,7 @@ int main(int argc, char** argv) {
   app.add_option("--rate", rate, "keyframes per second")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
   app.add_option("--duration", duration_s, "seconds")->capture_default_str();
   app.add_flag("--fresh-segments", fresh_segments, "every keyframe in a new map segment");
+  app.add_flag("--mixed-sizes", mixed_sizes, "keyframes and point batches of a real flight's different sizes");
   app.add_flag("--wait-match", wait_match, "start writing once the server's readers matched (up to 10 s)");
   CLI11_PARSE(app, argc, argv);
   options.participant_name = "ccm_flooder";
@@ -102,14 +110,18 @@ int main(int argc, char** argv) {
       status_writer->Write(ccm::synthetic::MakeAgentStatus(agent, index));
       next_status = now + std::chrono::milliseconds(500);
     }
-    msg::KeyframeFull kf = ccm::synthetic::MakeKeyframe(agent, index, kFeatures, kPointsPerKeyframe);
+    const bool anchor = mixed_sizes && index % 2 == 1;
+    const int features = anchor ? 0 : mixed_sizes ? 500 + Spread(index, 1500) : kFeatures;
+    const int num_points = anchor ? 0 : mixed_sizes ? Spread(index + 17, 300) : kPointsPerKeyframe;
+    msg::KeyframeFull kf = ccm::synthetic::MakeKeyframe(agent, index, features, std::min(num_points, features));
+    kf.anchor_only(anchor);
     if (fresh_segments) {
       // A new segment starts without a predecessor, like an agent's first keyframe after a reset.
       kf.segment_id(ccm::MapId::Make(agent, index + 1).packed());
       kf.predecessor_id(0);
       kf.parent_id(0);
     }
-    const msg::MapPointBatch points = PointsOf(agent, index, kf);
+    const msg::MapPointBatch points = PointsOf(agent, index, kf, std::min(num_points, features));
     (kf_writer->Write(kf) ? written : refused) += 1;
     (point_writer->Write(points) ? written : refused) += 1;
     ++index;
