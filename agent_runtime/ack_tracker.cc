@@ -1,6 +1,7 @@
 #include "agent_runtime/ack_tracker.h"
 
 #include <algorithm>
+#include <iterator>
 
 namespace ccm::agent {
 
@@ -88,11 +89,15 @@ void AckTracker::MarkPersistedLocked() {
     e.persisted = true;
     persisted_.insert(it->first);
     ++durable_.persisted;
-    // Kept while an unacknowledged entry precedes it: the gap rule needs its successor.
-    it = it == entries_.begin() ? entries_.erase(it) : std::next(it);
+    ++it;
   }
-  // A persisted prefix is never needed again; IsAcked/IsPersisted answer from the sets.
-  while (!entries_.empty() && entries_.begin()->second.persisted) entries_.erase(entries_.begin());
+  // A persisted entry is needed only as the acknowledged successor of an unacknowledged
+  // one (the gap rule); IsAcked/IsPersisted answer from the sets. Keeping every persisted
+  // entry behind a keyframe the server never acknowledges grew without bound.
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    const bool after_unacked = it != entries_.begin() && !std::prev(it)->second.acked;
+    it = it->second.persisted && !after_unacked ? entries_.erase(it) : std::next(it);
+  }
   while (persisted_.size() > kRememberedAcks) persisted_.erase(persisted_.begin());
 }
 
@@ -163,6 +168,11 @@ AckTracker::DurableCounts AckTracker::durable_counts() const {
   DurableCounts c = durable_;
   for (const auto& [id, entry] : entries_) c.unpersisted += entry.acked && !entry.persisted ? 1 : 0;
   return c;
+}
+
+std::size_t AckTracker::tracked_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
 }
 
 std::size_t AckTracker::unacked_count() const {

@@ -78,6 +78,9 @@ class AckTracker final : public AckSource {
   /// Of those, by the gap rule (the rest by the timeout rule).
   std::uint64_t resent_gap_count() const;
   std::size_t unacked_count() const;
+  /// Keyframes whose resend state is kept: the unacknowledged, the acknowledged but not
+  /// persisted, and one persisted successor per unacknowledged one (bounded by those).
+  std::size_t tracked_count() const;
   /// What the durable acks did so far (one lock for all of it).
   struct DurableCounts {
     std::size_t unpersisted = 0;            ///< acknowledged, not persisted: needed if the server restarts now

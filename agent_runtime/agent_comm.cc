@@ -193,7 +193,12 @@ void AgentComm::PackChanges() {
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   reference_kf_ = batch.reference_kf;
   segment_ = batch.segment;
-  for (const KeyframeData& kf : batch.keyframes) kf_backlog_.push_back(conv::ToMsg(kf, batch.reference_kf));
+  for (const KeyframeData& kf : batch.keyframes) {
+    kf_backlog_.push_back({conv::ToMsg(kf, batch.reference_kf), resend_ids_.count(kf.id) > 0});
+  }
+  // A resend the source could not pack (the keyframe left the map meanwhile) is not waited
+  // for: the AckTracker's timeout asks again, and then the source reports it gone.
+  resend_ids_.clear();
   for (const MapPointData& mp : batch.map_points) mp_backlog_.push_back(conv::ToMsg(mp));
   for (const KeyframePoseUpdate& u : batch.keyframe_updates) kf_updates_.push_back(conv::ToMsg(u));
   for (const MapPointPositionUpdate& u : batch.map_point_updates) mp_updates_.push_back(conv::ToMsg(u, batch.segment));
@@ -212,12 +217,12 @@ void AgentComm::WriteBacklog() {
   // tiny and superseded by newer ones, so only the latest of each id goes, every cycle.
   size_t budget = static_cast<size_t>(bytes_per_cycle_);
   uint64_t kfs = 0, resent = 0, mps = 0, failures = 0;
-  while (!kf_backlog_.empty() && (budget >= WireBytes(kf_backlog_.front()) || kfs + resent == 0)) {
-    const msg::KeyframeFull& m = kf_backlog_.front();
+  while (!kf_backlog_.empty() && (budget >= WireBytes(kf_backlog_.front().message) || kfs + resent == 0)) {
+    const msg::KeyframeFull& m = kf_backlog_.front().message;
     budget -= std::min(budget, WireBytes(m));
     failures += keyframe_writer_->Write(m) ? 0 : 1;
     acks_->OnSent(KeyframeId(m.id()), Clock::now());
-    if (resend_ids_.erase(m.id())) {
+    if (kf_backlog_.front().resend) {
       ++resent;
     } else {
       ++kfs;
@@ -267,7 +272,7 @@ void AgentComm::WriteBacklog() {
   kf_updates_.clear();
   mp_updates_.clear();
   size_t backlog = 0;
-  for (const auto& m : kf_backlog_) backlog += WireBytes(m);
+  for (const auto& k : kf_backlog_) backlog += WireBytes(k.message);
   for (const auto& m : mp_backlog_) backlog += WireBytes(m);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.kfs_sent += kfs;
@@ -283,7 +288,7 @@ void AgentComm::Resend(const std::vector<KeyframeId>& ids) {
   // Counted when written (WriteBacklog).
   for (const KeyframeId id : ids) {
     if (source_->Resend(id)) {
-      resend_ids_.insert(id.packed());
+      resend_ids_.insert(id);
     } else {
       acks_->Forget(id);  // it left the local map unacknowledged: the source counted it as lost
     }

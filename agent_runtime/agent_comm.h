@@ -111,7 +111,11 @@ class AgentComm {
   MapId segment_;
   /// Packed messages waiting for the rate limit, oldest first (new data before updates of
   /// the same cycle).
-  std::deque<msg::KeyframeFull> kf_backlog_;
+  struct PackedKeyframe {
+    msg::KeyframeFull message;
+    bool resend = false;  ///< packed again for a resend (counted as kfs_resent when written)
+  };
+  std::deque<PackedKeyframe> kf_backlog_;
   std::deque<msg::MapPointFull> mp_backlog_;
   std::vector<msg::KeyframeUpdate> kf_updates_;
   /// Keyframe updates are BEST_EFFORT: the latest pose of each keyframe goes out in
@@ -121,7 +125,7 @@ class AgentComm {
   std::unordered_map<uint64_t, std::pair<msg::KeyframeUpdate, int>> kf_update_repeats_;
   std::vector<msg::MapPointUpdate> mp_updates_;
   std::vector<std::string> rejection_kinds_logged_;
-  std::set<uint64_t> resend_ids_;  ///< packed again for a resend, not written yet
+  std::set<KeyframeId> resend_ids_;  ///< asked of the source since the last pack (cleared by it)
   std::uint64_t server_restarts_logged_ = 0;
   std::int64_t unpersisted_evictions_logged_ = 0;
   bool server_matched_ = false;    ///< keyframe writer and server reader both matched at the last check

@@ -260,3 +260,43 @@ TEST(AckTracker, AServerRestartedWithItsClockSetBackIsAdoptedAfterARunOfItsMessa
 
 }  // namespace
 }  // namespace ccm::agent
+
+namespace ccm::agent {
+namespace {
+
+TEST(AckTracker, AKeyframeNeverAcknowledgedDoesNotPinEverythingSentAfterIt) {
+  // Keyframe 1 is never acknowledged (the server keeps rejecting it); 2..5000 are acked and
+  // saved. The tracker used to keep every persisted entry behind 1: 5000 entries after
+  // 5000 keyframes. Only 1 and its successor (for the gap rule) are needed.
+  AckTracker t(std::chrono::milliseconds(0));
+  auto now = AckTracker::Clock::now();
+  t.OnSent(Kf(1), now);
+  for (int i = 2; i <= 5000; ++i) {
+    t.OnSent(Kf(i), now);
+    const auto resend = t.OnAcked({Kf(i)}, now, {1, static_cast<std::uint64_t>(i), static_cast<std::uint64_t>(i)});
+    if (i == 2) {
+      EXPECT_EQ(resend, (std::vector<KeyframeId>{Kf(1)}));
+    }
+    now += std::chrono::milliseconds(100);
+  }
+  EXPECT_EQ(t.unacked_count(), 1u);
+  EXPECT_EQ(t.tracked_count(), 2u);
+  EXPECT_TRUE(t.IsPersisted(Kf(5000)));
+  EXPECT_FALSE(t.IsAcked(Kf(1)));
+  // The gap rule still asks for 1 (its acknowledged successor was kept).
+  EXPECT_EQ(t.OnAcked({}, now, {1, 5001, 5000}), (std::vector<KeyframeId>{Kf(1)}));
+}
+
+TEST(AckTracker, AcknowledgedButUnsavedKeyframesStayTrackedForARestart) {
+  AckTracker t(std::chrono::milliseconds(0));
+  const auto t0 = AckTracker::Clock::now();
+  for (int i = 1; i <= 6; ++i) t.OnSent(Kf(i), t0);
+  t.OnAcked({Kf(1), Kf(2), Kf(3)}, t0, {1, 1, 1});   // saved
+  t.OnAcked({Kf(5), Kf(6)}, t0, {1, 2, 1});          // processed, not saved; 4 missing
+  // 4 (unacked) and 5, 6 (not saved) are needed; 1-3 are not.
+  EXPECT_EQ(t.tracked_count(), 3u);
+  EXPECT_EQ(t.OnAcked({}, t0, {2, 1, 0}), (std::vector<KeyframeId>{Kf(5), Kf(6)}));
+}
+
+}  // namespace
+}  // namespace ccm::agent
