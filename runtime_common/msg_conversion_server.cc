@@ -54,7 +54,6 @@ msg::ServerMapPoint PointToMsg(const ServerMapPoint& mp, const std::unordered_se
   m.x_ref(static_cast<float>(mp.position_ref.x()));
   m.y_ref(static_cast<float>(mp.position_ref.y()));
   m.z_ref(static_cast<float>(mp.position_ref.z()));
-  m.descriptor(DescriptorToMsg(mp.descriptor));
   for (const auto& [kf, index] : mp.observations) {
     if (m.obs_kf_ids().size() >= msg::kMaxObservations) break;
     if (left_out.count(kf) || index < 0 || index >= static_cast<int>(msg::kMaxKeypoints)) continue;
@@ -82,7 +81,6 @@ std::string PointFromMsg(const msg::ServerMapPoint& m, const std::unordered_map<
                          ServerMapPoint* mp) {
   if (auto e = AnyIdFromMsg(m.id(), "map point", true, &mp->id); !e.empty()) return e;
   if (auto e = PositionFromMsg(m.x_ref(), m.y_ref(), m.z_ref(), &mp->position_ref); !e.empty()) return e;
-  mp->descriptor = DescriptorFromMsg(m.descriptor());
   const auto& kfs = m.obs_kf_ids();
   const auto& index = m.obs_keypoint_index();
   if (kfs.size() != index.size()) return Str(kfs.size()) + " observing keyframes but " + Str(index.size()) + " keypoint indices";

@@ -167,7 +167,6 @@ msg::ServerToAgent MakeServerToAgent(std::uint16_t agent, int num_keyframes, int
     msg::ServerMapPoint mp;
     mp.id(MapPointId::Make(agent + 1, i + 1).packed());
     mp.x_ref(n(rng)); mp.y_ref(n(rng)); mp.z_ref(3.0f + n(rng));
-    mp.descriptor(RandomDescriptor(rng));
     for (int o = 0; o < 4 && num_keyframes > 0; ++o) {
       mp.obs_kf_ids().push_back(KeyframeId::Make(agent + 1, (i + o) % num_keyframes + 1).packed());
       mp.obs_keypoint_index().push_back(static_cast<std::uint16_t>(rng() % std::max(1, features_per_kf)));

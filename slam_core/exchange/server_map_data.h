@@ -29,7 +29,7 @@ struct ServerKeyframe {
 struct ServerMapPoint {
   MapPointId id;
   Eigen::Vector3d position_ref = Eigen::Vector3d::Zero();  ///< in the reference keyframe's frame
-  OrbDescriptor descriptor{};
+  // No descriptor: the agent takes it from the observing keyframes' keypoints.
   std::vector<std::pair<KeyframeId, int>> observations;  ///< (keyframe, keypoint index)
   /// The agent holds this point already: only id and position travel (no descriptor, no
   /// observations; downlink deltas, docs/protocol.md).

@@ -123,7 +123,6 @@ std::optional<ServerMapData> AgentNeighbourhood(const MapStack& stack, AgentId a
       ServerMapPoint smp;
       smp.id = mp->id();
       smp.position_ref = (ref_from_world * mp->position()) * to_vo;
-      smp.descriptor = mp->descriptor();
       for (const auto& [kf, idx] : mp->observations()) {
         // The agent can attach an observation only to keyframes it has: the ones sent now
         // and its own.

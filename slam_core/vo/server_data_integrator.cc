@@ -55,7 +55,9 @@ void IntegratePoints(const ServerMapData& data, const SE3& world_from_ref, Agent
     }
     if (!mp) {
       if (smp.observations.empty()) continue;
-      mp = std::make_shared<MapPoint>(smp.id, p_w, smp.observations.front().first, smp.descriptor);
+      // No descriptor on the wire: UpdateMapPointAppearance below takes it from the
+      // observing keyframes' keypoints; a point left without one is erased.
+      mp = std::make_shared<MapPoint>(smp.id, p_w, smp.observations.front().first, OrbDescriptor{});
       mp->MarkFromServer();
       map->AddMapPoint(mp);
       ++stats->points_added;

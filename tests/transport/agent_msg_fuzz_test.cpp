@@ -165,7 +165,6 @@ TEST(ServerMessageFuzz, MutatedServerMessagesIntoATrackingAgentNeverBreakItsMap)
       ServerMapPoint& smp = points[mps[i]];
       smp.id = MapPointId::Make(2, mps[i].counter());
       smp.position_ref = ref->cam_from_world() * mp->position();
-      smp.descriptor = mp->descriptor();
       smp.observations.emplace_back(foreign, static_cast<int>(i));
     }
   }

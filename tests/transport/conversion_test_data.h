@@ -130,7 +130,6 @@ inline ServerMapData MakeServerMapData(AgentId agent, int kfs, int features, int
     ServerMapPoint mp;
     mp.id = MapPointId::Make(other, 5000 + i);
     mp.position_ref = Eigen::Vector3d(n(rng), n(rng), 5.0 + n(rng));
-    mp.descriptor = RandomDescriptor(rng);
     if (kfs > 0) mp.observations.emplace_back(KeyframeId::Make(other, 100 + i % kfs), i % std::max(1, features));
     mp.observations.emplace_back(KeyframeId::Make(agent, 2), i);
     data.map_points.push_back(std::move(mp));

@@ -61,7 +61,7 @@ uint64_t Kf(AgentId agent, uint64_t counter) { return KeyframeId::Make(agent, co
 TEST(MsgRejection, Keyframe) {
   auto r = KeyframeRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "keyframe: protocol version 1, expected 7");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "keyframe: protocol version 1, expected " + std::to_string(msg::kProtocolVersion));
   EXPECT_EQ(r([](auto& m) { m.id(Kf(4, 12)); }), "keyframe: keyframe id 4:12 belongs to agent 4, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.agent_id(5); }), "keyframe: keyframe id 3:12 belongs to agent 3, not to sender 5");
   EXPECT_EQ(r([](auto& m) { m.id(Kf(3, 0)); }), "keyframe: keyframe id 3:0 is invalid");
@@ -163,7 +163,7 @@ TEST(MsgRejection, KeyframePoses) {
 TEST(MsgRejection, MapPoint) {
   auto r = MapPointRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point: protocol version 2, expected 7");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point: protocol version 2, expected " + std::to_string(msg::kProtocolVersion));
   EXPECT_EQ(r([](auto& m) { m.id(MapPointId::Make(4, 40).packed()); }),
             "map point: map point id 4:40 belongs to agent 4, not to sender 3");
   EXPECT_EQ(r([](auto& m) { m.segment_counter(0); }), "map point: segment counter is 0");
@@ -188,7 +188,7 @@ TEST(MsgRejection, MapPoint) {
 TEST(MsgRejection, Updates) {
   auto k = KeyframeUpdateRejection;
   EXPECT_EQ(k([](auto&) {}), "accepted");
-  EXPECT_EQ(k([](auto& m) { m.protocol_version(0); }), "keyframe update: protocol version 0, expected 7");
+  EXPECT_EQ(k([](auto& m) { m.protocol_version(0); }), "keyframe update: protocol version 0, expected " + std::to_string(msg::kProtocolVersion));
   EXPECT_EQ(k([](auto& m) { m.id(Kf(1, 20)); }), "keyframe update: keyframe id 1:20 belongs to agent 1, not to sender 3");
   EXPECT_EQ(k([](auto& m) { m.segment_counter(0); }), "keyframe update: segment counter is 0");
   EXPECT_EQ(k([](auto& m) { m.predecessor_id(Kf(2, 19)); }), "keyframe update: predecessor of another agent");
@@ -202,7 +202,7 @@ TEST(MsgRejection, Updates) {
 
   auto p = MapPointUpdateRejection;
   EXPECT_EQ(p([](auto&) {}), "accepted");
-  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected 7");
+  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected " + std::to_string(msg::kProtocolVersion));
   EXPECT_EQ(p([](auto& m) { m.id(MapPointId::Make(3, 0).packed()); }), "map point update: map point id 3:0 is invalid");
   EXPECT_EQ(p([](auto& m) { m.segment_counter(0); }), "map point update: segment counter is 0");
   EXPECT_EQ(p([](auto& m) { m.ref_kf_id(Kf(9, 4)); }),
@@ -214,7 +214,7 @@ TEST(MsgRejection, Updates) {
 TEST(MsgRejection, ServerMessage) {
   auto r = ServerRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "server message: protocol version 1, expected 7");
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(1); }), "server message: protocol version 1, expected " + std::to_string(msg::kProtocolVersion));
   EXPECT_EQ(r([](auto& m) { m.agent_id(2); }), "server message: addressed to agent 2, not 1");
   EXPECT_EQ(r([](auto& m) { m.server_epoch(0); }), "server message: server epoch 0");
   EXPECT_EQ(r([](auto& m) { m.acked_kf_ids().push_back(Kf(2, 5)); }),

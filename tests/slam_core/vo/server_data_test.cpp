@@ -43,7 +43,6 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
       ServerMapPoint& smp = points[mps[i]];
       smp.id = MapPointId::Make(2, mps[i].counter());
       smp.position_ref = ref->cam_from_world() * mp->position();
-      smp.descriptor = mp->descriptor();
       smp.observations.emplace_back(foreign, static_cast<int>(i));
     }
   }
@@ -63,6 +62,16 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
   EXPECT_EQ(s1.server.keyframes_added, 3);
   EXPECT_EQ(s1.server.points_added, static_cast<int64_t>(points.size()));
   EXPECT_GE(s1.server.observations_added, static_cast<int64_t>(points.size()));
+  // No descriptor travels (protocol 8): each point takes one of its observing keypoints'.
+  for (const auto& [id, smp] : points) {
+    const auto mp = map->map_point(smp.id);
+    ASSERT_NE(mp, nullptr);
+    bool from_a_keypoint = false;
+    for (const auto& [kf_id, idx] : smp.observations) {
+      from_a_keypoint = from_a_keypoint || map->keyframe(kf_id)->features().descriptors[idx] == mp->descriptor();
+    }
+    EXPECT_TRUE(from_a_keypoint) << "point " << smp.id.counter();
+  }
   // Foreign keyframes sharing foreign points are connected in the covisibility graph.
   EXPECT_GT(map->keyframe(KeyframeId::Make(2, 1000))->covisibility().size(), 0u);
   // What the agent reports holding (the server then sends these as poses only).
@@ -104,7 +113,7 @@ TEST(ServerData, ForeignKeyframesAndPointsLandWhereTheServerSaysAndTrackingConti
   EXPECT_EQ(vo.Holdings().applied_stamp_ns, 6);
   EXPECT_LT((map->map_point(held_point.id)->position() - ref->world_from_cam() * held_point.position_ref).norm(), 1e-9);
   EXPECT_EQ(map->map_point(held_point.id)->num_observations(), observations_before) << "observations stay";
-  EXPECT_EQ(map->map_point(unknown_point.id), nullptr) << "no descriptor: nothing to make a point of";
+  EXPECT_EQ(map->map_point(unknown_point.id), nullptr) << "a position only: nothing to make a point of";
   EXPECT_EQ(vo.stats().server.points_not_held, 1);
 
   // Nothing received from the server is reported back as an own change.
