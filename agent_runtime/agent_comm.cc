@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <map>
 #include <unordered_map>
 
 #include "runtime_common/topics.h"
@@ -21,7 +22,7 @@ size_t WireBytes(const msg::KeyframeFull& m) {
   return 170 + m.keypoints().size() * 6 + m.descriptors().size() * 32 + m.own_mp_offsets().size() * 6 +
          m.other_mp_ids().size() * 10;
 }
-size_t WireBytes(const msg::MapPointFull& m) { return 48 + m.obs_kf_offsets().size() * 6; }
+size_t WireBytes(const msg::MapPointFull& m) { return 40 + m.obs_kf_offsets().size() * 6; }
 
 static_assert(kMaxPointUpdatesPerSample == msg::kMaxPointUpdatesPerBatch, "agent_config.h mirrors the IDL bound");
 
@@ -199,9 +200,9 @@ void AgentComm::PackChanges() {
   // A resend the source could not pack (the keyframe left the map meanwhile) is not waited
   // for: the AckTracker's timeout asks again, and then the source reports it gone.
   resend_ids_.clear();
-  for (const MapPointData& mp : batch.map_points) mp_backlog_.push_back(conv::ToMsg(mp));
+  for (const MapPointData& mp : batch.map_points) mp_backlog_.push_back({conv::ToMsg(mp), mp.segment});
   for (const KeyframePoseUpdate& u : batch.keyframe_updates) kf_updates_.push_back(conv::ToMsg(u));
-  for (const MapPointPositionUpdate& u : batch.map_point_updates) mp_updates_.push_back(conv::ToMsg(u, batch.segment));
+  for (const MapPointPositionUpdate& u : batch.map_point_updates) mp_updates_.push_back({conv::ToMsg(u), batch.segment});
   const AgentDataSource::Counters counters = source_->counters();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.pack_ms_max = std::max(stats_.pack_ms_max, ms);
@@ -229,18 +230,23 @@ void AgentComm::WriteBacklog() {
     }
     kf_backlog_.pop_front();
   }
-  // Points in batches (idl MapPointBatch): one sample per cycle instead of one per point.
+  // Points in batches (idl MapPointBatch): one sample per cycle instead of one per point,
+  // one segment per batch (a backlog may span a new segment).
+  const AgentId agent = static_cast<AgentId>(config_.agent_id);
   msg::MapPointBatch points;
-  points.protocol_version(msg::kProtocolVersion);
-  points.agent_id(static_cast<std::uint16_t>(config_.agent_id));
   auto flush_points = [&] {
     if (points.points().empty()) return;
     failures += point_writer_->Write(points) ? 0 : 1;
     points.points().clear();
   };
-  while (!mp_backlog_.empty() && budget >= WireBytes(mp_backlog_.front())) {
-    budget -= WireBytes(mp_backlog_.front());
-    points.points().push_back(std::move(mp_backlog_.front()));
+  while (!mp_backlog_.empty() && budget >= WireBytes(mp_backlog_.front().message)) {
+    auto& [message, segment] = mp_backlog_.front();
+    if (points.points().empty() || points.segment_counter() != conv::PointBatch(agent, segment).segment_counter()) {
+      flush_points();
+      points = conv::PointBatch(agent, segment);
+    }
+    budget -= WireBytes(message);
+    points.points().push_back(std::move(message));
     mp_backlog_.pop_front();
     ++mps;
     if (points.points().size() >= msg::kMaxPointsPerBatch) flush_points();
@@ -253,27 +259,33 @@ void AgentComm::WriteBacklog() {
     ++kf_updates_written;
     it = --it->second.second > 0 ? std::next(it) : kf_update_repeats_.erase(it);
   }
-  std::unordered_map<uint64_t, const msg::MapPointUpdate*> latest_mp;
-  for (const auto& u : mp_updates_) latest_mp[u.id()] = &u;
-  msg::MapPointUpdateBatch updates;
-  updates.protocol_version(msg::kProtocolVersion);
-  updates.agent_id(static_cast<std::uint16_t>(config_.agent_id));
+  // The latest update of each point, grouped by segment (a batch is of one segment).
+  std::map<std::pair<MapId, uint64_t>, const msg::MapPointUpdate*> latest_mp;
+  for (const auto& [u, segment] : mp_updates_) latest_mp[{segment, u.id()}] = &u;
   // Small samples: a BEST_EFFORT sample fragmented over n datagrams is lost when any of them
   // is (at 10 % datagram loss, 38 % of the point updates were lost in batches of ~40).
   const size_t per_sample = static_cast<size_t>(config_.point_updates_per_sample);
-  for (const auto& [id, u] : latest_mp) {
-    updates.updates().push_back(*u);
-    if (updates.updates().size() >= per_sample) {
-      failures += mp_update_writer_->Write(updates) ? 0 : 1;
-      updates.updates().clear();
+  msg::MapPointUpdateBatch updates;
+  MapId updates_segment;
+  auto flush_updates = [&] {
+    if (updates.updates().empty()) return;
+    failures += mp_update_writer_->Write(updates) ? 0 : 1;
+    updates.updates().clear();
+  };
+  for (const auto& [key, u] : latest_mp) {
+    if (updates.updates().size() >= per_sample || key.first != updates_segment) {
+      flush_updates();
+      updates = conv::PointUpdateBatch(agent, key.first);
+      updates_segment = key.first;
     }
+    updates.updates().push_back(*u);
   }
-  if (!updates.updates().empty()) failures += mp_update_writer_->Write(updates) ? 0 : 1;
+  flush_updates();
   kf_updates_.clear();
   mp_updates_.clear();
   size_t backlog = 0;
   for (const auto& k : kf_backlog_) backlog += WireBytes(k.message);
-  for (const auto& m : mp_backlog_) backlog += WireBytes(m);
+  for (const auto& p : mp_backlog_) backlog += WireBytes(p.message);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.kfs_sent += kfs;
   stats_.kfs_resent += resent;

@@ -116,14 +116,18 @@ class AgentComm {
     bool resend = false;  ///< packed again for a resend (counted as kfs_resent when written)
   };
   std::deque<PackedKeyframe> kf_backlog_;
-  std::deque<msg::MapPointFull> mp_backlog_;
+  struct PackedPoint {
+    msg::MapPointFull message;
+    MapId segment;  ///< goes in the batch header
+  };
+  std::deque<PackedPoint> mp_backlog_;
   std::vector<msg::KeyframeUpdate> kf_updates_;
   /// Keyframe updates are BEST_EFFORT: the latest pose of each keyframe goes out in
   /// kKeyframeUpdateCopies consecutive cycles (148 B each), so the last refinement of a
   /// keyframe, which no later update supersedes, survives a lossy link (20% -> 4% lost).
   static constexpr int kKeyframeUpdateCopies = 2;
   std::unordered_map<uint64_t, std::pair<msg::KeyframeUpdate, int>> kf_update_repeats_;
-  std::vector<msg::MapPointUpdate> mp_updates_;
+  std::vector<std::pair<msg::MapPointUpdate, MapId>> mp_updates_;
   std::vector<std::string> rejection_kinds_logged_;
   std::set<KeyframeId> resend_ids_;  ///< asked of the source since the last pack (cleared by it)
   std::uint64_t server_restarts_logged_ = 0;

@@ -1,4 +1,5 @@
-// Agent -> server types: KeyframeFull, MapPointFull, KeyframeUpdate, MapPointUpdate, AgentStatus.
+// Agent -> server types: KeyframeFull, MapPointBatch / MapPointFull, KeyframeUpdate,
+// MapPointUpdateBatch / MapPointUpdate, AgentStatus.
 #include "runtime_common/msg_conversion.h"
 
 #include <algorithm>
@@ -22,6 +23,14 @@ std::string SegmentFromCounter(std::uint32_t counter, AgentId agent, MapId* out)
   if (counter == 0) return "segment counter is 0";
   *out = MapId::Make(agent, counter);
   return "";
+}
+
+std::optional<MapId> BatchSegment(const char* kind, unsigned version, AgentId agent, std::uint32_t counter,
+                                  std::string* error) {
+  if (version != msg::kProtocolVersion) return Reject<MapId>(error, kind, VersionMismatch(version));
+  MapId segment;
+  if (auto e = SegmentFromCounter(counter, agent, &segment); !e.empty()) return Reject<MapId>(error, kind, e);
+  return segment;
 }
 
 // The keypoint-indexed links: equal lengths, indices inside the keyframe, valid point ids
@@ -155,11 +164,32 @@ std::optional<KeyframeData> FromMsg(const msg::KeyframeFull& m, CameraCache* cam
   return kf;
 }
 
+msg::MapPointBatch PointBatch(AgentId agent, MapId segment) {
+  msg::MapPointBatch b;
+  b.protocol_version(msg::kProtocolVersion);
+  b.agent_id(agent);
+  b.segment_counter(SegmentCounter(segment, agent));
+  return b;
+}
+
+msg::MapPointUpdateBatch PointUpdateBatch(AgentId agent, MapId segment) {
+  msg::MapPointUpdateBatch b;
+  b.protocol_version(msg::kProtocolVersion);
+  b.agent_id(agent);
+  b.segment_counter(SegmentCounter(segment, agent));
+  return b;
+}
+
+std::optional<MapId> BatchSegment(const msg::MapPointBatch& m, std::string* error) {
+  return BatchSegment("map point batch", m.protocol_version(), m.agent_id(), m.segment_counter(), error);
+}
+
+std::optional<MapId> BatchSegment(const msg::MapPointUpdateBatch& m, std::string* error) {
+  return BatchSegment("map point update batch", m.protocol_version(), m.agent_id(), m.segment_counter(), error);
+}
+
 msg::MapPointFull ToMsg(const MapPointData& mp) {
   msg::MapPointFull m;
-  m.protocol_version(msg::kProtocolVersion);
-  m.agent_id(mp.id.agent());
-  m.segment_counter(SegmentCounter(mp.segment, mp.id.agent()));
   m.id(mp.id.packed());
   m.ref_kf_id(mp.reference_kf.packed());
   m.x_ref(static_cast<float>(mp.position_ref.x()));
@@ -183,14 +213,12 @@ msg::MapPointFull ToMsg(const MapPointData& mp) {
   return m;
 }
 
-std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, std::string* error) {
+std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, AgentId agent, MapId segment, std::string* error) {
   constexpr const char* kKind = "map point";
   auto reject = [&](const std::string& what) { return Reject<MapPointData>(error, kKind, what); };
-  if (m.protocol_version() != msg::kProtocolVersion) return reject(VersionMismatch(m.protocol_version()));
-  const AgentId agent = m.agent_id();
   MapPointData mp;
+  mp.segment = segment;
   if (auto e = OwnIdFromMsg(m.id(), agent, "map point", &mp.id); !e.empty()) return reject(e);
-  if (auto e = SegmentFromCounter(m.segment_counter(), agent, &mp.segment); !e.empty()) return reject(e);
   if (auto e = OwnIdFromMsg(m.ref_kf_id(), agent, "reference keyframe", &mp.reference_kf); !e.empty()) return reject(e);
   if (auto e = PositionFromMsg(m.x_ref(), m.y_ref(), m.z_ref(), &mp.position_ref); !e.empty()) return reject(e);
   const auto& offsets = m.obs_kf_offsets();
@@ -244,11 +272,8 @@ std::optional<KeyframePoseUpdate> FromMsg(const msg::KeyframeUpdate& m, std::str
   return u;
 }
 
-msg::MapPointUpdate ToMsg(const MapPointPositionUpdate& u, MapId segment) {
+msg::MapPointUpdate ToMsg(const MapPointPositionUpdate& u) {
   msg::MapPointUpdate m;
-  m.protocol_version(msg::kProtocolVersion);
-  m.agent_id(u.id.agent());
-  m.segment_counter(SegmentCounter(segment, u.id.agent()));
   m.id(u.id.packed());
   m.ref_kf_id(u.reference_kf.packed());
   m.x_ref(static_cast<float>(u.position_ref.x()));
@@ -257,19 +282,14 @@ msg::MapPointUpdate ToMsg(const MapPointPositionUpdate& u, MapId segment) {
   return m;
 }
 
-std::optional<MapPointPositionUpdate> FromMsg(const msg::MapPointUpdate& m, std::string* error, MapId* segment) {
+std::optional<MapPointPositionUpdate> FromMsg(const msg::MapPointUpdate& m, AgentId agent, std::string* error) {
   constexpr const char* kKind = "map point update";
   auto reject = [&](const std::string& what) { return Reject<MapPointPositionUpdate>(error, kKind, what); };
-  if (m.protocol_version() != msg::kProtocolVersion) return reject(VersionMismatch(m.protocol_version()));
-  const AgentId agent = m.agent_id();
   MapPointPositionUpdate u;
-  MapId seg;
   if (auto e = OwnIdFromMsg(m.id(), agent, "map point", &u.id); !e.empty()) return reject(e);
-  if (auto e = SegmentFromCounter(m.segment_counter(), agent, &seg); !e.empty()) return reject(e);
   if (auto e = OwnIdFromMsg(m.ref_kf_id(), agent, "reference keyframe", &u.reference_kf); !e.empty()) return reject(e);
   if (auto e = PositionFromMsg(m.x_ref(), m.y_ref(), m.z_ref(), &u.position_ref); !e.empty()) return reject(e);
   if (auto e = ValidateMapPointPositionUpdate(u, agent, kLimits); !e.empty()) return reject(e);
-  if (segment != nullptr) *segment = seg;
   return u;
 }
 

@@ -78,21 +78,30 @@ msg::KeyframeFull ToMsg(const KeyframeData& kf, KeyframeId agent_reference_kf);
 std::optional<KeyframeData> FromMsg(const msg::KeyframeFull& m, CameraCache* cameras, std::string* error,
                                     KeyframeId* agent_reference_kf = nullptr);
 
+/// Points and point updates travel in batches of one agent and segment (the batch header
+/// carries version, agent and segment; a segment that does not fit, or belongs to another
+/// agent, is sent as 0, which every receiver rejects). Empty batches, to fill with ToMsg's.
+msg::MapPointBatch PointBatch(AgentId agent, MapId segment);
+msg::MapPointUpdateBatch PointUpdateBatch(AgentId agent, MapId segment);
+/// A received batch's segment after checking its header (version, segment): nullopt and
+/// the reason otherwise. Its elements are then converted with the batch's agent and segment.
+std::optional<MapId> BatchSegment(const msg::MapPointBatch& m, std::string* error);
+std::optional<MapId> BatchSegment(const msg::MapPointUpdateBatch& m, std::string* error);
+
 /// Observations beyond kMaxObservations are left out. Normal and depth range: zero (the
-/// value type does not carry them).
+/// value type does not carry them). mp.segment goes in the batch header (PointBatch).
 msg::MapPointFull ToMsg(const MapPointData& mp);
-std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, std::string* error);
+std::optional<MapPointData> FromMsg(const msg::MapPointFull& m, AgentId agent, MapId segment, std::string* error);
 
 /// The segment travels as its 32-bit counter; a segment that does not fit (or belongs to
 /// another agent) is sent as 0, which every receiver rejects.
 msg::KeyframeUpdate ToMsg(const KeyframePoseUpdate& u);
 std::optional<KeyframePoseUpdate> FromMsg(const msg::KeyframeUpdate& m, std::string* error);
 
-/// `segment`: the agent's segment the point belongs to (the value type has none; the server
-/// finds the map through it, AgentBatch::segment). Sent as in the keyframe update.
-msg::MapPointUpdate ToMsg(const MapPointPositionUpdate& u, MapId segment);
-std::optional<MapPointPositionUpdate> FromMsg(const msg::MapPointUpdate& m, std::string* error,
-                                              MapId* segment = nullptr);
+/// The segment (the value type has none; the server finds the map through it,
+/// AgentBatch::segment) goes in the batch header (PointUpdateBatch).
+msg::MapPointUpdate ToMsg(const MapPointPositionUpdate& u);
+std::optional<MapPointPositionUpdate> FromMsg(const msg::MapPointUpdate& m, AgentId agent, std::string* error);
 
 // ---- Agent heartbeat.
 

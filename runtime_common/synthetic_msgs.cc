@@ -87,10 +87,7 @@ msg::MapPointFull MakeMapPoint(std::uint16_t agent, std::uint64_t index, int num
   std::mt19937_64 rng(Seed(agent, index, 2));
   std::normal_distribution<float> n(0.0f, 1.0f);
   msg::MapPointFull mp;
-  mp.protocol_version(msg::kProtocolVersion);
-  mp.agent_id(agent);
   mp.id(MapPointId::Make(agent, index + 1).packed());
-  mp.segment_counter(1);
   mp.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
   mp.x_ref(n(rng)); mp.y_ref(n(rng)); mp.z_ref(3.0f + n(rng));
   for (int i = 0; i < num_observations; ++i) {
@@ -118,9 +115,6 @@ msg::MapPointUpdate MakeMapPointUpdate(std::uint16_t agent, std::uint64_t index)
   std::mt19937_64 rng(Seed(agent, index, 4));
   std::normal_distribution<float> n(0.0f, 1.0f);
   msg::MapPointUpdate u;
-  u.protocol_version(msg::kProtocolVersion);
-  u.agent_id(agent);
-  u.segment_counter(1);
   u.id(MapPointId::Make(agent, index + 1).packed());
   u.ref_kf_id(KeyframeId::Make(agent, index / 100 + 1).packed());
   u.x_ref(n(rng)); u.y_ref(n(rng)); u.z_ref(n(rng));

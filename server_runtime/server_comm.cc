@@ -22,11 +22,6 @@ constexpr int kMaxBatchesPerCycle = 16;
 // and liveliness is checked, at least this often.
 constexpr std::chrono::milliseconds kMaxIdle(100);
 
-std::string VersionMismatch(const char* what, uint16_t version) {
-  return std::string(what) + ": protocol version " + std::to_string(version) + ", expected " +
-         std::to_string(msg::kProtocolVersion);
-}
-
 // Agent ids are 16 bits on the wire; 0 is never a valid agent.
 bool ValidAgentId(uint16_t id) { return id != 0; }
 
@@ -286,16 +281,17 @@ void ServerComm::OnKeyframe(AgentId agent, const msg::KeyframeFull& m) {
 
 void ServerComm::OnPoints(AgentId agent, const msg::MapPointBatch& m, BatchSet* batches) {
   if (!Admit(agent, "map points")) return;
-  if (m.protocol_version() != msg::kProtocolVersion) {
-    Reject(agent, VersionMismatch("map point batch", m.protocol_version()));
+  std::string error;
+  const auto segment = conv::BatchSegment(m, &error);
+  if (!segment) {
+    Reject(agent, error);
     return;
   }
-  std::string error;
   int64_t accepted = 0;
   for (const msg::MapPointFull& p : m.points()) {
-    auto d = p.agent_id() == agent ? conv::FromMsg(p, &error) : std::nullopt;
+    auto d = conv::FromMsg(p, agent, *segment, &error);
     if (!d) {
-      Reject(agent, p.agent_id() == agent ? error : "map point: agent id differs from its batch's");
+      Reject(agent, error);
       continue;
     }
     reassembly_.AddMapPoint(agent, std::move(*d), Clock::now(), batches);
@@ -320,20 +316,20 @@ void ServerComm::OnKeyframeUpdate(AgentId agent, const msg::KeyframeUpdate& m, B
 
 void ServerComm::OnPointUpdates(AgentId agent, const msg::MapPointUpdateBatch& m, BatchSet* batches) {
   if (!Admit(agent, "map point updates")) return;
-  if (m.protocol_version() != msg::kProtocolVersion) {
-    Reject(agent, VersionMismatch("map point update batch", m.protocol_version()));
+  std::string error;
+  const auto segment = conv::BatchSegment(m, &error);
+  if (!segment) {
+    Reject(agent, error);
     return;
   }
-  std::string error;
   int64_t accepted = 0;
   for (const msg::MapPointUpdate& u : m.updates()) {
-    MapId segment;
-    auto d = u.agent_id() == agent ? conv::FromMsg(u, &error, &segment) : std::nullopt;
+    auto d = conv::FromMsg(u, agent, &error);
     if (!d) {
-      Reject(agent, u.agent_id() == agent ? error : "map point update: agent id differs from its batch's");
+      Reject(agent, error);
       continue;
     }
-    if (reassembly_.AddMapPointUpdate(agent, *d, segment, batches) == KeyframeReassembly::UpdateFate::kBatched) {
+    if (reassembly_.AddMapPointUpdate(agent, *d, *segment, batches) == KeyframeReassembly::UpdateFate::kBatched) {
       ++accepted;
     }
   }

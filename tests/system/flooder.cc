@@ -39,10 +39,10 @@ msg::MapPointBatch PointsOf(uint16_t agent, uint64_t index, const msg::KeyframeF
   msg::MapPointBatch batch;
   batch.protocol_version(msg::kProtocolVersion);
   batch.agent_id(agent);
+  batch.segment_counter(static_cast<uint32_t>(ccm::MapId(kf.segment_id()).counter()));
   for (int i = 0; i < num_points; ++i) {
     msg::MapPointFull p = ccm::synthetic::MakeMapPoint(agent, index * 1000 + static_cast<uint64_t>(i), 0);
     p.ref_kf_id(kf.id());
-    p.segment_counter(ccm::MapId(kf.segment_id()).counter());
     p.obs_kf_offsets().push_back(0);
     p.obs_keypoint_index().push_back(static_cast<uint16_t>(i));
     batch.points().push_back(std::move(p));

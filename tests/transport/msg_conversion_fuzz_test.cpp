@@ -26,18 +26,24 @@ constexpr AgentId kAgent = 1;
 
 struct BaseMessages {
   std::vector<msg::KeyframeFull> keyframes;
-  std::vector<msg::MapPointFull> map_points;
+  std::vector<msg::MapPointBatch> map_points;  // one point each
   std::vector<msg::KeyframeUpdate> keyframe_updates;
-  std::vector<msg::MapPointUpdate> map_point_updates;
+  std::vector<msg::MapPointUpdateBatch> map_point_updates;  // one update each
   std::vector<msg::ServerToAgent> server;
 };
 
 // Agent messages of every batch, as the agent's comm module would send them.
 void AddAgentMessages(const AgentBatch& b, BaseMessages* out) {
   for (const auto& kf : b.keyframes) out->keyframes.push_back(conv::ToMsg(kf, b.reference_kf));
-  for (const auto& mp : b.map_points) out->map_points.push_back(conv::ToMsg(mp));
+  for (const auto& mp : b.map_points) {
+    out->map_points.push_back(conv::PointBatch(mp.id.agent(), mp.segment));
+    out->map_points.back().points().push_back(conv::ToMsg(mp));
+  }
   for (const auto& u : b.keyframe_updates) out->keyframe_updates.push_back(conv::ToMsg(u));
-  for (const auto& u : b.map_point_updates) out->map_point_updates.push_back(conv::ToMsg(u, b.segment));
+  for (const auto& u : b.map_point_updates) {
+    out->map_point_updates.push_back(conv::PointUpdateBatch(u.id.agent(), b.segment));
+    out->map_point_updates.back().updates().push_back(conv::ToMsg(u));
+  }
 }
 
 // Mutates one random field of a keyframe.
@@ -113,12 +119,13 @@ void MutateKeyframe(MsgMutator& z, msg::KeyframeFull* m) {
   }
 }
 
-void MutateMapPoint(MsgMutator& z, msg::MapPointFull* m) {
+void MutateMapPoint(MsgMutator& z, msg::MapPointBatch* b) {
+  msg::MapPointFull* m = &b->points()[0];
   switch (z.rng()() % 10) {
-    case 0: m->protocol_version(z.Version()); break;
-    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 0: b->protocol_version(z.Version()); break;
+    case 1: b->agent_id(z.OtherAgent(b->agent_id())); break;
     case 2: m->id(z.Id(m->id())); break;
-    case 3: m->segment_counter(z.Integer(m->segment_counter())); break;
+    case 3: b->segment_counter(z.Integer(b->segment_counter())); break;
     case 4: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
     case 5: m->x_ref(z.Realf(m->x_ref())); break;
     case 6: m->z_ref(z.Realf(m->z_ref())); break;
@@ -153,18 +160,19 @@ void MutateKeyframeUpdate(MsgMutator& z, msg::KeyframeUpdate* m) {
   }
 }
 
-void MutateMapPointUpdate(MsgMutator& z, msg::MapPointUpdate* m) {
+void MutateMapPointUpdate(MsgMutator& z, msg::MapPointUpdateBatch* b) {
+  msg::MapPointUpdate* m = &b->updates()[0];
   switch (z.rng()() % 8) {
-    case 0: m->protocol_version(z.Version()); break;
-    case 1: m->agent_id(z.OtherAgent(m->agent_id())); break;
+    case 0: b->protocol_version(z.Version()); break;
+    case 1: b->agent_id(z.OtherAgent(b->agent_id())); break;
     case 2: m->id(z.Id(m->id())); break;
-    case 3: m->segment_counter(z.Integer(m->segment_counter())); break;
+    case 3: b->segment_counter(z.Integer(b->segment_counter())); break;
     case 4: m->ref_kf_id(z.Id(m->ref_kf_id())); break;
     case 5: m->y_ref(z.Realf(m->y_ref())); break;
     case 6: m->z_ref(z.Realf(m->z_ref())); break;
     default: {  // sent by another agent, consistently
-      const AgentId a = z.Chance(0.2) ? 0 : z.OtherAgent(m->agent_id());
-      m->agent_id(a);
+      const AgentId a = z.Chance(0.2) ? 0 : z.OtherAgent(b->agent_id());
+      b->agent_id(a);
       m->id(MsgMutator::Readdress(m->id(), a));
       m->ref_kf_id(MsgMutator::Readdress(m->ref_kf_id(), a));
       break;
@@ -210,9 +218,14 @@ TEST(MsgConversionFuzz, HundredThousandHostileMessagesNeverCrashTheBackend) {
   for (const AgentBatch& b : stream.batches) AddAgentMessages(b, &base);
   std::string error;
   for (const auto& m : base.keyframes) ASSERT_TRUE(conv::FromMsg(m, &cameras, &error)) << error;
-  for (const auto& m : base.map_points) ASSERT_TRUE(conv::FromMsg(m, &error)) << error;
+  for (const auto& m : base.map_points) {
+    const auto segment = conv::BatchSegment(m, &error);
+    ASSERT_TRUE(segment && conv::FromMsg(m.points()[0], m.agent_id(), *segment, &error)) << error;
+  }
   for (const auto& m : base.keyframe_updates) ASSERT_TRUE(conv::FromMsg(m, &error)) << error;
-  for (const auto& m : base.map_point_updates) ASSERT_TRUE(conv::FromMsg(m, &error)) << error;
+  for (const auto& m : base.map_point_updates) {
+    ASSERT_TRUE(conv::BatchSegment(m, &error) && conv::FromMsg(m.updates()[0], m.agent_id(), &error)) << error;
+  }
   for (const AgentBatch& b : stream.batches) backend.Submit(b);
   backend.ProcessAllQueued();
   for (const AgentBatch& b : stream.batches) {
@@ -248,9 +261,11 @@ TEST(MsgConversionFuzz, HundredThousandHostileMessagesNeverCrashTheBackend) {
         ok = true;
       }
     } else if (kind < 55) {
-      msg::MapPointFull m = base.map_points[z.Index(base.map_points.size())];
+      msg::MapPointBatch m = base.map_points[z.Index(base.map_points.size())];
       std::optional<MapPointData> mp;
-      if (Mutate<msg::MapPointFullPubSubType>(z, &m, MutateMapPoint) && (mp = conv::FromMsg(m, &error))) {
+      std::optional<MapId> segment;
+      if (Mutate<msg::MapPointBatchPubSubType>(z, &m, MutateMapPoint) && (segment = conv::BatchSegment(m, &error)) &&
+          m.points().size() == 1 && (mp = conv::FromMsg(m.points()[0], m.agent_id(), *segment, &error))) {
         sink.For(m.agent_id(), mp->segment).map_points.push_back(std::move(*mp));
         ok = true;
       }
@@ -262,11 +277,13 @@ TEST(MsgConversionFuzz, HundredThousandHostileMessagesNeverCrashTheBackend) {
         ok = true;
       }
     } else if (kind < 85) {
-      msg::MapPointUpdate m = base.map_point_updates[z.Index(base.map_point_updates.size())];
+      msg::MapPointUpdateBatch m = base.map_point_updates[z.Index(base.map_point_updates.size())];
       std::optional<MapPointPositionUpdate> u;
-      MapId segment;
-      if (Mutate<msg::MapPointUpdatePubSubType>(z, &m, MutateMapPointUpdate) && (u = conv::FromMsg(m, &error, &segment))) {
-        sink.For(m.agent_id(), segment).map_point_updates.push_back(*u);
+      std::optional<MapId> segment;
+      if (Mutate<msg::MapPointUpdateBatchPubSubType>(z, &m, MutateMapPointUpdate) &&
+          (segment = conv::BatchSegment(m, &error)) && m.updates().size() == 1 &&
+          (u = conv::FromMsg(m.updates()[0], m.agent_id(), &error))) {
+        sink.For(m.agent_id(), *segment).map_point_updates.push_back(*u);
         ok = true;
       }
     } else {

@@ -125,10 +125,15 @@ TEST(MsgConversion, KeyframeBeyondTheKeypointBoundLosesTheRestAndItsLinks) {
   EXPECT_TRUE(FromMsg(m, nullptr, &error)) << error;
 }
 
-TEST(MsgConversion, MapPointRoundTrip) {
+TEST(MsgConversion, MapPointRoundTripInABatch) {
   const MapPointData mp = testing::MakeMapPointData(6, 77);
+  msg::MapPointBatch batch = conv::PointBatch(6, mp.segment);
+  batch.points().push_back(ToMsg(mp));
   std::string error;
-  const auto back = FromMsg(ToMsg(mp), &error);
+  const auto segment = conv::BatchSegment(batch, &error);
+  ASSERT_TRUE(segment) << error;
+  EXPECT_EQ(*segment, mp.segment);
+  const auto back = FromMsg(batch.points()[0], batch.agent_id(), *segment, &error);
   ASSERT_TRUE(back) << error;
   EXPECT_EQ(back->id, mp.id);
   EXPECT_EQ(back->segment, mp.segment);
@@ -142,7 +147,7 @@ TEST(MsgConversion, MapPointBeyondTheObservationBoundLosesTheRest) {
   const MapPointData mp = testing::MakeMapPointData(6, 78, msg::kMaxObservations + 10);
   EXPECT_EQ(ToMsg(mp).obs_kf_offsets().size(), msg::kMaxObservations);
   std::string error;
-  EXPECT_TRUE(FromMsg(ToMsg(mp), &error)) << error;
+  EXPECT_TRUE(FromMsg(ToMsg(mp), 6, mp.segment, &error)) << error;
 }
 
 TEST(MsgConversion, KeyframeUpdateRoundTrip) {
@@ -161,16 +166,21 @@ TEST(MsgConversion, KeyframeUpdateRoundTrip) {
 TEST(MsgConversion, MapPointUpdateRoundTripCarriesTheSegment) {
   const MapPointPositionUpdate u = testing::MakeMapPointPositionUpdate(9, 41);
   std::string error;
-  MapId segment;
-  const auto back = FromMsg(ToMsg(u, MapId::Make(9, 3)), &error, &segment);
+  msg::MapPointUpdateBatch batch = conv::PointUpdateBatch(9, MapId::Make(9, 3));
+  batch.updates().push_back(ToMsg(u));
+  const auto segment = conv::BatchSegment(batch, &error);
+  ASSERT_TRUE(segment) << error;
+  EXPECT_EQ(*segment, MapId::Make(9, 3));
+  const auto back = FromMsg(batch.updates()[0], batch.agent_id(), &error);
   ASSERT_TRUE(back) << error;
   EXPECT_EQ(back->id, u.id);
   EXPECT_EQ(back->reference_kf, u.reference_kf);
   EXPECT_EQ(back->position_ref, u.position_ref);  // exactly representable in float
-  EXPECT_EQ(segment, MapId::Make(9, 3));
   // A segment that cannot travel is sent as 0, which receivers reject.
-  EXPECT_EQ(ToMsg(u, MapId::Make(9, std::uint64_t{1} << 40)).segment_counter(), 0u);
-  EXPECT_EQ(ToMsg(u, MapId::Make(8, 3)).segment_counter(), 0u);
+  EXPECT_EQ(conv::PointUpdateBatch(9, MapId::Make(9, std::uint64_t{1} << 40)).segment_counter(), 0u);
+  EXPECT_EQ(conv::PointBatch(9, MapId::Make(8, 3)).segment_counter(), 0u);
+  EXPECT_FALSE(conv::BatchSegment(conv::PointBatch(9, MapId::Make(8, 3)), &error));
+  EXPECT_EQ(error, "map point batch: segment counter is 0");
 }
 
 TEST(MsgConversion, ServerMessageRoundTrip) {
@@ -327,6 +337,18 @@ TEST(MsgConversion, HeldPointsTravelAsPositionsOnly) {
   twice.held_map_points().push_back(again);
   EXPECT_FALSE(FromMsg(twice, 1, nullptr, &error));
   EXPECT_NE(error.find("twice"), std::string::npos) << error;
+}
+
+TEST(MsgConversion, HeldPointsOfTheReceivingAgentDoNotTravel) {
+  // Its own points the agent keeps as its VO has them: a position would be ignored.
+  ServerMapData data = testing::MakeServerMapData(1, 3, 200, 50);
+  for (int i = 0; i < 30; ++i) data.map_points[i].held = true;
+  for (int i = 0; i < 10; ++i) data.map_points[i].id = MapPointId::Make(1, 7000 + i);  // held, own
+  data.map_points[40].id = MapPointId::Make(1, 7100);                                   // full, own
+  const msg::ServerToAgent m = ToMsg(1, 9, {}, {}, &data);
+  EXPECT_EQ(m.held_map_points().size(), 20u);
+  EXPECT_EQ(m.map_points().size(), 20u) << "own points in full still bring their observations";
+  for (const auto& h : m.held_map_points()) EXPECT_NE(MapPointId(h.id()).agent(), 1);
 }
 
 TEST(MsgConversion, StatusCarriesTheAgentsHoldings) {

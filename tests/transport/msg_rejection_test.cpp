@@ -26,11 +26,15 @@ std::string KeyframeRejection(const Mutation<msg::KeyframeFull>& mutate) {
   return conv::FromMsg(m, nullptr, &error) ? "accepted" : error;
 }
 
-std::string MapPointRejection(const Mutation<msg::MapPointFull>& mutate) {
-  msg::MapPointFull m = conv::ToMsg(testing::MakeMapPointData(3, 40));
+// A batch of one point (the batch carries version, agent and segment).
+std::string MapPointRejection(const Mutation<msg::MapPointBatch>& mutate) {
+  const MapPointData mp = testing::MakeMapPointData(3, 40);
+  msg::MapPointBatch m = conv::PointBatch(3, mp.segment);
+  m.points().push_back(conv::ToMsg(mp));
   mutate(m);
   std::string error;
-  return conv::FromMsg(m, &error) ? "accepted" : error;
+  const auto segment = conv::BatchSegment(m, &error);
+  return segment && conv::FromMsg(m.points()[0], m.agent_id(), *segment, &error) ? "accepted" : error;
 }
 
 std::string KeyframeUpdateRejection(const Mutation<msg::KeyframeUpdate>& mutate) {
@@ -40,11 +44,13 @@ std::string KeyframeUpdateRejection(const Mutation<msg::KeyframeUpdate>& mutate)
   return conv::FromMsg(m, &error) ? "accepted" : error;
 }
 
-std::string MapPointUpdateRejection(const Mutation<msg::MapPointUpdate>& mutate) {
-  msg::MapPointUpdate m = conv::ToMsg(testing::MakeMapPointPositionUpdate(3, 21), MapId::Make(3, 1));
+std::string MapPointUpdateRejection(const Mutation<msg::MapPointUpdateBatch>& mutate) {
+  msg::MapPointUpdateBatch m = conv::PointUpdateBatch(3, MapId::Make(3, 1));
+  m.updates().push_back(conv::ToMsg(testing::MakeMapPointPositionUpdate(3, 21)));
   mutate(m);
   std::string error;
-  return conv::FromMsg(m, &error) ? "accepted" : error;
+  const auto segment = conv::BatchSegment(m, &error);
+  return segment && conv::FromMsg(m.updates()[0], m.agent_id(), &error) ? "accepted" : error;
 }
 
 // For agent 1: acks, 3 keyframes of agent 2 with 50 features, 20 points.
@@ -163,25 +169,25 @@ TEST(MsgRejection, KeyframePoses) {
 TEST(MsgRejection, MapPoint) {
   auto r = MapPointRejection;
   EXPECT_EQ(r([](auto&) {}), "accepted");
-  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point: protocol version 2, expected " + std::to_string(msg::kProtocolVersion));
-  EXPECT_EQ(r([](auto& m) { m.id(MapPointId::Make(4, 40).packed()); }),
+  EXPECT_EQ(r([](auto& m) { m.protocol_version(2); }), "map point batch: protocol version 2, expected " + std::to_string(msg::kProtocolVersion));
+  EXPECT_EQ(r([](auto& m) { m.points()[0].id(MapPointId::Make(4, 40).packed()); }),
             "map point: map point id 4:40 belongs to agent 4, not to sender 3");
-  EXPECT_EQ(r([](auto& m) { m.segment_counter(0); }), "map point: segment counter is 0");
-  EXPECT_EQ(r([](auto& m) { m.ref_kf_id(Kf(2, 3)); }),
+  EXPECT_EQ(r([](auto& m) { m.segment_counter(0); }), "map point batch: segment counter is 0");
+  EXPECT_EQ(r([](auto& m) { m.points()[0].ref_kf_id(Kf(2, 3)); }),
             "map point: reference keyframe id 2:3 belongs to agent 2, not to sender 3");
-  EXPECT_EQ(r([](auto& m) { m.y_ref(kNaN); }), "map point: position: non-finite value");
-  EXPECT_EQ(r([](auto& m) { m.z_ref(3e7f); }), "map point: position beyond 1e6 m");
-  EXPECT_EQ(r([](auto& m) { m.obs_kf_offsets().pop_back(); }), "map point: 4 observing keyframes but 5 keypoint indices");
+  EXPECT_EQ(r([](auto& m) { m.points()[0].y_ref(kNaN); }), "map point: position: non-finite value");
+  EXPECT_EQ(r([](auto& m) { m.points()[0].z_ref(3e7f); }), "map point: position beyond 1e6 m");
+  EXPECT_EQ(r([](auto& m) { m.points()[0].obs_kf_offsets().pop_back(); }), "map point: 4 observing keyframes but 5 keypoint indices");
   EXPECT_EQ(r([](auto& m) {
-              m.obs_kf_offsets().resize(65, 0);
-              m.obs_keypoint_index().resize(65, 1);
+              m.points()[0].obs_kf_offsets().resize(65, 0);
+              m.points()[0].obs_keypoint_index().resize(65, 1);
             }),
             "map point: 65 observations (limit 64)");
   // The reference keyframe is 3:3: an offset of -3 names counter 0.
-  EXPECT_EQ(r([](auto& m) { m.obs_kf_offsets()[1] = -3; }), "map point: observation 1: keyframe offset -3 out of range");
-  EXPECT_EQ(r([](auto& m) { m.ref_kf_id(Kf(3, KeyframeId::kCounterMask)); }),
+  EXPECT_EQ(r([](auto& m) { m.points()[0].obs_kf_offsets()[1] = -3; }), "map point: observation 1: keyframe offset -3 out of range");
+  EXPECT_EQ(r([](auto& m) { m.points()[0].ref_kf_id(Kf(3, KeyframeId::kCounterMask)); }),
             "map point: observation 1: keyframe offset 1 out of range");
-  EXPECT_EQ(r([](auto& m) { m.obs_keypoint_index()[1] = 4000; }),
+  EXPECT_EQ(r([](auto& m) { m.points()[0].obs_keypoint_index()[1] = 4000; }),
             "map point: observation 1: keypoint index 4000 out of range");
 }
 
@@ -202,12 +208,12 @@ TEST(MsgRejection, Updates) {
 
   auto p = MapPointUpdateRejection;
   EXPECT_EQ(p([](auto&) {}), "accepted");
-  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update: protocol version 1, expected " + std::to_string(msg::kProtocolVersion));
-  EXPECT_EQ(p([](auto& m) { m.id(MapPointId::Make(3, 0).packed()); }), "map point update: map point id 3:0 is invalid");
-  EXPECT_EQ(p([](auto& m) { m.segment_counter(0); }), "map point update: segment counter is 0");
-  EXPECT_EQ(p([](auto& m) { m.ref_kf_id(Kf(9, 4)); }),
+  EXPECT_EQ(p([](auto& m) { m.protocol_version(1); }), "map point update batch: protocol version 1, expected " + std::to_string(msg::kProtocolVersion));
+  EXPECT_EQ(p([](auto& m) { m.updates()[0].id(MapPointId::Make(3, 0).packed()); }), "map point update: map point id 3:0 is invalid");
+  EXPECT_EQ(p([](auto& m) { m.segment_counter(0); }), "map point update batch: segment counter is 0");
+  EXPECT_EQ(p([](auto& m) { m.updates()[0].ref_kf_id(Kf(9, 4)); }),
             "map point update: reference keyframe id 9:4 belongs to agent 9, not to sender 3");
-  EXPECT_EQ(p([](auto& m) { m.x_ref(std::numeric_limits<float>::infinity()); }),
+  EXPECT_EQ(p([](auto& m) { m.updates()[0].x_ref(std::numeric_limits<float>::infinity()); }),
             "map point update: position: non-finite value");
 }
 

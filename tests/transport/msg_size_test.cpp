@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "idl/ccm_msgsPubSubTypes.h"
+#include "runtime_common/msg_conversion.h"
 #include "runtime_common/synthetic_msgs.h"
 #include "slam_core/common/ids.h"
 
@@ -70,16 +71,25 @@ TEST(MsgSize, KeyframeUpdateFitsIn148Bytes) {
   EXPECT_LE(msg::KeyframeUpdatePubSubType().m_typeSize, 148u + 4u);  // bounded type, incl. padding
 }
 
-// CCM-SLAM's point update is 52 B; ours is 40 B with the segment (a 32-bit counter in
-// what would be alignment padding). The budget keeps room for one more 8-byte field.
-TEST(MsgSize, MapPointUpdateIs40BytesWithinA60ByteBudget) {
+// CCM-SLAM's point update is 52 B; ours is 32 B in a batch (id, reference keyframe,
+// position; version, agent and segment once per batch since version 8: 40 B before).
+TEST(MsgSize, MapPointUpdateIs32BytesInABatch) {
   msg::MapPointUpdate u = synthetic::MakeMapPointUpdate(2, 9);
   msg::MapPointUpdate back;
   const auto bytes = SerializedSize<msg::MapPointUpdatePubSubType>(u, &back);
-  std::cout << "map point update: " << bytes << " B\n";
-  EXPECT_EQ(bytes, 40u);
-  EXPECT_LE(bytes, 60u);
+  std::cout << "map point update: " << bytes << " B (incl. the 4-byte encapsulation header)\n";
+  EXPECT_EQ(bytes, 32u);
   EXPECT_TRUE(back == u);
+  msg::MapPointUpdateBatch batch;
+  batch.protocol_version(msg::kProtocolVersion);
+  batch.agent_id(2);
+  batch.segment_counter(1);
+  const auto empty = SerializedSize<msg::MapPointUpdateBatchPubSubType>(batch);
+  for (int i = 0; i < 30; ++i) batch.updates().push_back(synthetic::MakeMapPointUpdate(2, i));
+  msg::MapPointUpdateBatch batch_back;
+  const auto full = SerializedSize<msg::MapPointUpdateBatchPubSubType>(batch, &batch_back);
+  EXPECT_EQ(full - empty, 30u * 32u);  // 8-byte aligned elements of 28 B
+  EXPECT_TRUE(batch_back == batch);
 }
 
 TEST(MsgSize, FullMapPointAbout80BytesWithFiveObservations) {
@@ -87,16 +97,16 @@ TEST(MsgSize, FullMapPointAbout80BytesWithFiveObservations) {
   msg::MapPointFull back;
   const auto bytes = SerializedSize<msg::MapPointFullPubSubType>(mp, &back);
   std::cout << "full map point, 5 observations: " << bytes << " B\n";
-  // version + agent 2 x 2, segment counter 4, ids 2 x 8, position 12, 5 x (4 + 2)
-  // observations + 2 x 4 sequence lengths (+ alignment); no descriptor. Version 4: 100 B
-  // (64-bit segment and observing keyframe ids), version 3: 132 B, version 2: 152 B.
-  EXPECT_GE(bytes, 74u);
-  EXPECT_LE(bytes, 80u);
+  // ids 2 x 8, position 12, 5 x (4 + 2) observations + 2 x 4 sequence lengths (+ alignment);
+  // no descriptor; version, agent and segment in the batch header. Version 7: 74-80 B
+  // (version 4: 100 B, 64-bit segment and observing keyframe ids; 3: 132 B; 2: 152 B).
+  EXPECT_GE(bytes, 66u);
+  EXPECT_LE(bytes, 72u);
   EXPECT_TRUE(back == mp);
-  // The common case, one observation: 50 B + the 4-byte encapsulation header here (in a
-  // batch 56 B with the next point's alignment; version 4: 64).
+  // The common case, one observation: 42 B + the 4-byte encapsulation header here (in a
+  // batch 48 B with the next point's alignment; version 7: 56, version 4: 64).
   msg::MapPointFull one = synthetic::MakeMapPoint(4, 11, 1);
-  EXPECT_EQ(SerializedSize<msg::MapPointFullPubSubType>(one), 54u);
+  EXPECT_EQ(SerializedSize<msg::MapPointFullPubSubType>(one), 46u);
 }
 
 TEST(MsgSize, StatusAndServerMessagesRoundTrip) {
@@ -129,9 +139,9 @@ TEST(MsgSize, StatusAndServerMessagesRoundTrip) {
 
 TEST(MsgSize, EveryTopLevelTypeCarriesTheProtocolVersion) {
   EXPECT_EQ(synthetic::MakeKeyframe(1, 0, 10, 1).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(synthetic::MakeMapPoint(1, 0, 1).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(conv::PointBatch(1, MapId::Make(1, 1)).protocol_version(), msg::kProtocolVersion);
   EXPECT_EQ(synthetic::MakeKeyframeUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
-  EXPECT_EQ(synthetic::MakeMapPointUpdate(1, 0).protocol_version(), msg::kProtocolVersion);
+  EXPECT_EQ(conv::PointUpdateBatch(1, MapId::Make(1, 1)).protocol_version(), msg::kProtocolVersion);
   EXPECT_EQ(synthetic::MakeAgentStatus(1, 0).protocol_version(), msg::kProtocolVersion);
   EXPECT_EQ(synthetic::MakeServerToAgent(1, 0, 0, 0, 0).protocol_version(), msg::kProtocolVersion);
 }
