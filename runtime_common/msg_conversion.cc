@@ -25,6 +25,15 @@ std::string SegmentFromCounter(std::uint32_t counter, AgentId agent, MapId* out)
   return "";
 }
 
+template <typename Batch>
+Batch BatchHeader(AgentId agent, MapId segment) {
+  Batch b;
+  b.protocol_version(msg::kProtocolVersion);
+  b.agent_id(agent);
+  b.segment_counter(SegmentCounter(segment, agent));
+  return b;
+}
+
 std::optional<MapId> BatchSegment(const char* kind, unsigned version, AgentId agent, std::uint32_t counter,
                                   std::string* error) {
   if (version != msg::kProtocolVersion) return Reject<MapId>(error, kind, VersionMismatch(version));
@@ -164,20 +173,10 @@ std::optional<KeyframeData> FromMsg(const msg::KeyframeFull& m, CameraCache* cam
   return kf;
 }
 
-msg::MapPointBatch PointBatch(AgentId agent, MapId segment) {
-  msg::MapPointBatch b;
-  b.protocol_version(msg::kProtocolVersion);
-  b.agent_id(agent);
-  b.segment_counter(SegmentCounter(segment, agent));
-  return b;
-}
+msg::MapPointBatch PointBatch(AgentId agent, MapId segment) { return BatchHeader<msg::MapPointBatch>(agent, segment); }
 
 msg::MapPointUpdateBatch PointUpdateBatch(AgentId agent, MapId segment) {
-  msg::MapPointUpdateBatch b;
-  b.protocol_version(msg::kProtocolVersion);
-  b.agent_id(agent);
-  b.segment_counter(SegmentCounter(segment, agent));
-  return b;
+  return BatchHeader<msg::MapPointUpdateBatch>(agent, segment);
 }
 
 std::optional<MapId> BatchSegment(const msg::MapPointBatch& m, std::string* error) {
