@@ -234,6 +234,7 @@ void AgentComm::WriteBacklog() {
   // one segment per batch (a backlog may span a new segment).
   const AgentId agent = static_cast<AgentId>(config_.agent_id);
   msg::MapPointBatch points;
+  MapId points_segment;
   auto flush_points = [&] {
     if (points.points().empty()) return;
     failures += point_writer_->Write(points) ? 0 : 1;
@@ -241,9 +242,10 @@ void AgentComm::WriteBacklog() {
   };
   while (!mp_backlog_.empty() && budget >= WireBytes(mp_backlog_.front().message)) {
     auto& [message, segment] = mp_backlog_.front();
-    if (points.points().empty() || points.segment_counter() != conv::PointBatch(agent, segment).segment_counter()) {
+    if (points.points().empty() || segment != points_segment) {
       flush_points();
       points = conv::PointBatch(agent, segment);
+      points_segment = segment;
     }
     budget -= WireBytes(message);
     points.points().push_back(std::move(message));
