@@ -134,6 +134,128 @@ bool OpenInputs(const Args& a, std::vector<ccm::replay::ReplayAgentInput>* input
   return !inputs->empty();
 }
 
+/// Options a flag given on the command line wins over the --agent-config file for.
+struct ExplicitFlags {
+  CLI::Option* keyframe_delay = nullptr;
+  CLI::Option* anchor_duplicates = nullptr;
+};
+
+ExplicitFlags AddOptions(CLI::App* app, Args* a) {
+  ExplicitFlags flags;
+  app->add_option("--sim", a->sim, "built-in scenario (hall3, disjoint2, repeated) or scenario YAML");
+  app->add_option("--sim-agents", a->sim_agents, "scenario agent indices (default: all)")->delimiter(',');
+  app->add_option("--dataset", a->datasets,
+                 "dataset folder (EuRoC/TUM/KITTI layout), one per agent; repeat. DIR@FIRST-LAST takes "
+                 "frames FIRST..LAST (0-based, inclusive; DIR@FIRST- to the end), so slices of one "
+                 "sequence can be several agents");
+  app->add_option("--ground-truth", a->ground_truth,
+                 "ground-truth file of the datasets in the reader's format (KITTI: poses file; EuRoC: "
+                 "data.csv; TUM: groundtruth.txt) when not at its usual place: once for every --dataset, "
+                 "or once per --dataset in order")->check(CLI::ExistingFile);
+  app->add_option("--format", a->format, "dataset format: auto, euroc, tum, kitti")->capture_default_str();
+  app->add_option("--vocab", a->vocabulary, "bag-of-words vocabulary (ccm_vocab)")->capture_default_str();
+  app->add_option("--out", a->out, "output folder")->capture_default_str();
+  app->add_option("--max-frames", a->replay.max_frames, "frames per agent (-1: all)")->capture_default_str();
+  app->add_option("--send-period", a->replay.send_period_s, "agent -> server batch period, data time [s]")
+      ->capture_default_str();
+  app->add_flag("--threaded", a->replay.threaded, "agents and server stages on their own threads (not deterministic)");
+  app->add_flag("--no-sharing", a->no_sharing, "do not send the server's neighbourhood back to the agents");
+  flags.keyframe_delay = app->add_option("--keyframe-delay", a->replay.new_keyframe_delay_s,
+                 "a new keyframe is sent once this old, data time [s] (as ccm_agent)")->capture_default_str();
+  flags.anchor_duplicates = app->add_option("--anchor-duplicates", a->replay.anchor_duplicates.distance_ratio,
+                 "near-duplicate keyframes (this share of the scene depth) leave as pose anchors only; "
+                 "0: every keyframe in full (as ccm_agent's anchor_duplicate_distance_ratio)")->capture_default_str();
+  app->add_option("--agent-config", a->agent_config,
+                 "ccm_agent YAML for every agent: its vo section, max_keyframes, buffer_keyframes, "
+                 "new_keyframe_delay_s and map_sharing (the flags above win)")->check(CLI::ExistingFile);
+  app->add_flag("--no-redundancy", a->no_redundancy, "keep every keyframe (no redundancy removal)");
+  app->add_option("--theta", a->replay.server.redundancy.theta, "redundancy threshold")->capture_default_str();
+  app->add_option("--share-own-after", a->replay.server.share_own_keyframes_after_s,
+                 "map sharing also sends an agent its own keyframes this many seconds older than its reference "
+                 "(0: other agents' only; experimental)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--ba-max-free", a->replay.server.optimization.global_ba_max_free_keyframes,
+                 "a loop or fusion in a map above this many keyframes gets a global BA of its region only (0: whole map)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app->add_flag("--no-final-ba", a->no_final_ba, "skip the global BA of every map at the end");
+  app->add_option("--load-map", a->load_map, "start from a saved map stack");
+  app->add_option("--save-map", a->save_map, "save the map stack at the end");
+  app->add_option("--record", a->record, "write every agent batch to this file (replayable without the VO)");
+  ccm::server::AddMapViewOptions(app, &a->map_view);
+  app->add_option("--http-linger", a->http_linger_s,
+                 "with --http: keep serving the map view this long after the replay (-1: until Ctrl-C) [s]");
+  return flags;
+}
+
+/// Applies --agent-config and the flags to the replay options; an empty string when all is valid.
+std::string FinishArgs(const ExplicitFlags& flags, Args* a) {
+  a->replay.map_sharing = !a->no_sharing;
+  if (!a->agent_config.empty()) {
+    // Replay what a deployed agent would do with this file (tuning without DDS).
+    ccm::agent::AgentConfig config;
+    std::string config_error;
+    if (!ccm::agent::LoadAgentConfig(a->agent_config, &config, &config_error)) return config_error;
+    a->replay.vo = config.EffectiveVo();
+    if (flags.keyframe_delay->count() == 0) a->replay.new_keyframe_delay_s = config.new_keyframe_delay_s;
+    const double ratio = a->replay.anchor_duplicates.distance_ratio;
+    a->replay.anchor_duplicates = config.anchor_duplicates;
+    if (flags.anchor_duplicates->count() > 0) a->replay.anchor_duplicates.distance_ratio = ratio;
+    a->replay.map_sharing = config.map_sharing && !a->no_sharing;
+  }
+  a->replay.server.redundancy.enabled = !a->no_redundancy;
+  a->replay.final_global_ba = !a->no_final_ba;
+  if (!ccm::ParseDatasetFormat(a->format)) return "--format must be auto, euroc, tum or kitti";
+  if (a->http_linger_s != 0.0 && !a->map_view.enabled()) return "--http-linger needs --http PORT";
+  if (const std::string e = a->map_view.Validate(); a->map_view.port != -1 && !e.empty()) return e;
+  if (const std::string e = a->replay.Validate(); !e.empty()) return e;
+  if (a->vocabulary.empty()) return "no vocabulary: give --vocab FILE (train one with ccm_vocab train)";
+  return "";
+}
+
+std::unique_ptr<ccm::ServerBackend> MakeBackend(const Args& a, std::shared_ptr<const ccm::Vocabulary> vocab,
+                                                 std::string* error) {
+  if (a.load_map.empty()) return std::make_unique<ccm::ServerBackend>(std::move(vocab), a.replay.BackendOptions());
+  return ccm::LoadBackend(a.load_map, std::move(vocab), a.replay.BackendOptions(), error);
+}
+
+bool WriteOutputs(const Args& a, const ccm::report::RunResult& result, const ccm::ServerBackend& backend,
+                  ccm::replay::Recording* recording, std::string* error) {
+  const auto evaluation = ccm::report::EvaluateRun(result);
+  ccm::report::PrintRunSummary(result, evaluation);
+  if (!ccm::report::WriteRunOutputs(a.out, result, evaluation, backend.Snapshot(), error)) return false;
+  if (!a.save_map.empty() && !ccm::SaveBackend(backend, a.save_map, error)) return false;
+  if (!a.record.empty()) {
+    ccm::replay::RecordAgents(result, recording);
+    if (!ccm::replay::SaveRecording(*recording, a.record, error)) return false;
+  }
+  std::printf("outputs in %s (summary.json, map<k>_<agent>_keyframes.tum per map, <agent>_keyframes.tum of the "
+              "largest map, map.ply, map_top.png)\n", a.out.c_str());
+  std::fflush(stdout);
+  return true;
+}
+
+/// --http-linger: the map view keeps serving the finished replay (until Ctrl-C when negative).
+void LingerForMapView(const Args& a, const ccm::server::MapViewServer& view, const ccm::report::RunResult& result,
+                      ReplayViewStatus* view_status) {
+  ccm::replay::ReplayProgress done;
+  for (const auto& r : result.agents) done.frames_done += r.frames;
+  done.frames_total = done.frames_done;
+  view_status->Update(done, true);
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  if (a.http_linger_s < 0) {
+    std::printf("map view stays on %s (until Ctrl-C)\n", view.url().c_str());
+  } else {
+    std::printf("map view stays on %s (%.0f s)\n", view.url().c_str(), a.http_linger_s);
+  }
+  std::fflush(stdout);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.http_linger_s);
+  while (!g_stop && (a.http_linger_s < 0 || std::chrono::steady_clock::now() < until)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
 
 }  // namespace
 
@@ -142,71 +264,9 @@ int main(int argc, char** argv) {
   FLAGS_minloglevel = 2;  // Ceres' glog warnings would flood the terminal
   Args a;
   CLI::App app{"ccm_replay: several agents' VO + the server back-end in one process (no DDS)"};
-  app.add_option("--sim", a.sim, "built-in scenario (hall3, disjoint2, repeated) or scenario YAML");
-  app.add_option("--sim-agents", a.sim_agents, "scenario agent indices (default: all)")->delimiter(',');
-  app.add_option("--dataset", a.datasets,
-                 "dataset folder (EuRoC/TUM/KITTI layout), one per agent; repeat. DIR@FIRST-LAST takes "
-                 "frames FIRST..LAST (0-based, inclusive; DIR@FIRST- to the end), so slices of one "
-                 "sequence can be several agents");
-  app.add_option("--ground-truth", a.ground_truth,
-                 "ground-truth file of the datasets in the reader's format (KITTI: poses file; EuRoC: "
-                 "data.csv; TUM: groundtruth.txt) when not at its usual place: once for every --dataset, "
-                 "or once per --dataset in order")->check(CLI::ExistingFile);
-  app.add_option("--format", a.format, "dataset format: auto, euroc, tum, kitti")->capture_default_str();
-  app.add_option("--vocab", a.vocabulary, "bag-of-words vocabulary (ccm_vocab)")->capture_default_str();
-  app.add_option("--out", a.out, "output folder")->capture_default_str();
-  app.add_option("--max-frames", a.replay.max_frames, "frames per agent (-1: all)")->capture_default_str();
-  app.add_option("--send-period", a.replay.send_period_s, "agent -> server batch period, data time [s]")
-      ->capture_default_str();
-  app.add_flag("--threaded", a.replay.threaded, "agents and server stages on their own threads (not deterministic)");
-  app.add_flag("--no-sharing", a.no_sharing, "do not send the server's neighbourhood back to the agents");
-  auto* delay_opt = app.add_option("--keyframe-delay", a.replay.new_keyframe_delay_s,
-                 "a new keyframe is sent once this old, data time [s] (as ccm_agent)")->capture_default_str();
-  auto* anchor_opt = app.add_option("--anchor-duplicates", a.replay.anchor_duplicates.distance_ratio,
-                 "near-duplicate keyframes (this share of the scene depth) leave as pose anchors only; "
-                 "0: every keyframe in full (as ccm_agent's anchor_duplicate_distance_ratio)")->capture_default_str();
-  app.add_option("--agent-config", a.agent_config,
-                 "ccm_agent YAML for every agent: its vo section, max_keyframes, buffer_keyframes, "
-                 "new_keyframe_delay_s and map_sharing (the flags above win)")->check(CLI::ExistingFile);
-  app.add_flag("--no-redundancy", a.no_redundancy, "keep every keyframe (no redundancy removal)");
-  app.add_option("--theta", a.replay.server.redundancy.theta, "redundancy threshold")->capture_default_str();
-  app.add_option("--share-own-after", a.replay.server.share_own_keyframes_after_s,
-                 "map sharing also sends an agent its own keyframes this many seconds older than its reference "
-                 "(0: other agents' only; experimental)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  app.add_option("--ba-max-free", a.replay.server.optimization.global_ba_max_free_keyframes,
-                 "a loop or fusion in a map above this many keyframes gets a global BA of its region only (0: whole map)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  app.add_flag("--no-final-ba", a.no_final_ba, "skip the global BA of every map at the end");
-  app.add_option("--load-map", a.load_map, "start from a saved map stack");
-  app.add_option("--save-map", a.save_map, "save the map stack at the end");
-  app.add_option("--record", a.record, "write every agent batch to this file (replayable without the VO)");
-  ccm::server::AddMapViewOptions(&app, &a.map_view);
-  app.add_option("--http-linger", a.http_linger_s,
-                 "with --http: keep serving the map view this long after the replay (-1: until Ctrl-C) [s]");
+  const ExplicitFlags flags = AddOptions(&app, &a);
   CLI11_PARSE(app, argc, argv);
-  a.replay.map_sharing = !a.no_sharing;
-  if (!a.agent_config.empty()) {
-    // Replay what a deployed agent would do with this file (tuning without DDS).
-    ccm::agent::AgentConfig config;
-    std::string config_error;
-    if (!ccm::agent::LoadAgentConfig(a.agent_config, &config, &config_error)) return Fail(config_error);
-    a.replay.vo = config.EffectiveVo();
-    if (delay_opt->count() == 0) a.replay.new_keyframe_delay_s = config.new_keyframe_delay_s;
-    const double ratio = a.replay.anchor_duplicates.distance_ratio;
-    a.replay.anchor_duplicates = config.anchor_duplicates;
-    if (anchor_opt->count() > 0) a.replay.anchor_duplicates.distance_ratio = ratio;
-    a.replay.map_sharing = config.map_sharing && !a.no_sharing;
-  }
-  a.replay.server.redundancy.enabled = !a.no_redundancy;
-  a.replay.final_global_ba = !a.no_final_ba;
-  if (!ccm::ParseDatasetFormat(a.format)) return Fail("--format must be auto, euroc, tum or kitti");
-  if (a.http_linger_s != 0.0 && !a.map_view.enabled()) return Fail("--http-linger needs --http PORT");
-  if (const std::string e = a.map_view.Validate(); a.map_view.port != -1 && !e.empty()) return Fail(e);
-  if (const std::string e = a.replay.Validate(); !e.empty()) return Fail(e);
-  if (a.vocabulary.empty()) return Fail("no vocabulary: give --vocab FILE (train one with ccm_vocab train)");
+  if (const std::string e = FinishArgs(flags, &a); !e.empty()) return Fail(e);
   std::string error;
   auto loaded = ccm::LoadVocabularyFile(a.vocabulary, &error);
   if (!loaded) return Fail(error);
@@ -215,13 +275,8 @@ int main(int argc, char** argv) {
 
   std::vector<ccm::replay::ReplayAgentInput> inputs;
   if (!OpenInputs(a, &inputs, &error)) return Fail(error);
-  std::unique_ptr<ccm::ServerBackend> backend;
-  if (!a.load_map.empty()) {
-    backend = ccm::LoadBackend(a.load_map, vocab, a.replay.BackendOptions(), &error);
-    if (!backend) return Fail(error);
-  } else {
-    backend = std::make_unique<ccm::ServerBackend>(vocab, a.replay.BackendOptions());
-  }
+  std::unique_ptr<ccm::ServerBackend> backend = MakeBackend(a, vocab, &error);
+  if (!backend) return Fail(error);
   spdlog::info("replaying {} agents ({}), vocabulary {} words", inputs.size(), a.replay.threaded ? "threaded" : "deterministic",
                vocab->num_words());
   ReplayViewStatus view_status(inputs);
@@ -244,35 +299,8 @@ int main(int argc, char** argv) {
                  p.frames_total, p.maps.size(), kfs, p.fusions, p.loops);
   });
   if (!result.error.empty()) return Fail(result.error, 1);
-  const auto evaluation = ccm::report::EvaluateRun(result);
-  ccm::report::PrintRunSummary(result, evaluation);
-  if (!ccm::report::WriteRunOutputs(a.out, result, evaluation, backend->Snapshot(), &error)) return Fail(error, 1);
-  if (!a.save_map.empty() && !ccm::SaveBackend(*backend, a.save_map, &error)) return Fail(error, 1);
-  if (!a.record.empty()) {
-    ccm::replay::RecordAgents(result, &recording);
-    if (!ccm::replay::SaveRecording(recording, a.record, &error)) return Fail(error, 1);
-  }
-  std::printf("outputs in %s (summary.json, map<k>_<agent>_keyframes.tum per map, <agent>_keyframes.tum of the "
-              "largest map, map.ply, map_top.png)\n", a.out.c_str());
-  std::fflush(stdout);
-  if (view && a.http_linger_s != 0.0) {
-    ccm::replay::ReplayProgress done;
-    for (const auto& r : result.agents) done.frames_done += r.frames;
-    done.frames_total = done.frames_done;
-    view_status.Update(done, true);
-    std::signal(SIGINT, OnSignal);
-    std::signal(SIGTERM, OnSignal);
-    if (a.http_linger_s < 0) {
-      std::printf("map view stays on %s (until Ctrl-C)\n", view->url().c_str());
-    } else {
-      std::printf("map view stays on %s (%.0f s)\n", view->url().c_str(), a.http_linger_s);
-    }
-    std::fflush(stdout);
-    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.http_linger_s);
-    while (!g_stop && (a.http_linger_s < 0 || std::chrono::steady_clock::now() < until)) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-  }
+  if (!WriteOutputs(a, result, *backend, &recording, &error)) return Fail(error, 1);
+  if (view && a.http_linger_s != 0.0) LingerForMapView(a, *view, result, &view_status);
   if (view) view->Stop();
   return 0;
 }
