@@ -16,6 +16,7 @@
 #include "slam_core/io/trajectory_io.h"
 #include "slam_core/place_recognition/vocabulary_io.h"
 #include "agent_runtime/agent_comm.h"
+#include "agent_runtime/agent_metrics.h"
 #include "agent_runtime/cpu_usage.h"
 #include "runtime_common/process_memory.h"
 #include "slam_core/common/install_paths.h"
@@ -157,7 +158,8 @@ void LogProgress(const Flight& f, const FrameSource& source, const TrackingResul
 
 // The tracking thread's loop (this thread): every frame of the source through the VO, at
 // the requested pace, until the end, --max-frames or *stop.
-Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* comm, const volatile bool* stop) {
+Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* comm, FlightGauges* gauges,
+           const volatile bool* stop) {
   Pacer pacer(o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
   Flight f;
   f.start = Clock::now();
@@ -182,6 +184,11 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
     if (o.rate == "max" && last.new_keyframe) vo->WaitUntilMappingIdle();
     ++f.frames;
     f.tracked += last.world_from_cam.has_value();
+    gauges->frames = f.frames;
+    gauges->tracked = f.tracked;
+    gauges->state = static_cast<int>(last.state);
+    gauges->keyframes_created += last.new_keyframe ? 1 : 0;
+    gauges->segments += last.new_segment ? 1 : 0;
     if (last.new_segment) {
       spdlog::warn("frame {}: relocalization kept failing, continuing on a new map segment", f.frames - 1);
     }
@@ -302,6 +309,8 @@ std::string RunOptions::Validate() const {
   }
   if (agent_id < 1 || agent_id > 65535) return "agent id must be in 1..65535";
   if (!(drain_s >= 0.0)) return "--drain must be >= 0";
+  if (metrics_port < -1 || metrics_port > 65535) return "--metrics port must be in 0..65535";
+  if (metrics_port >= 0 && metrics_bind.empty()) return "--metrics-bind must name an address";
   return vo.Validate();
 }
 
@@ -336,6 +345,18 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
                !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
                camera->width(), camera->height(), CameraTypeName(camera->type()));
+  // --metrics: started after the comm module it reads, stopped before it.
+  FlightGauges gauges;
+  std::unique_ptr<MetricsEndpoint> metrics;
+  if (o.metrics_port >= 0) {
+    const AgentComm* link = comm.get();
+    metrics = MetricsEndpoint::Start(o.metrics_bind, o.metrics_port, [&gauges, link, id = o.agent_id] {
+      const AgentCommStats stats = link ? link->Stats() : AgentCommStats{};
+      return AgentMetricsText(id, gauges, link ? &stats : nullptr);
+    }, &error);
+    if (!metrics) return Error(error, 2);
+    spdlog::info("metrics on http://{}:{}/metrics", o.metrics_bind, metrics->port());
+  }
   // The local-mapping thread: started and joined here.
   std::atomic<bool> mapping_run{true};
   double mapping_cpu_s = 0.0;  // written by the mapping thread before it ends, read after join
@@ -343,7 +364,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
     while (mapping_run) vo.RunMappingOnce(std::chrono::milliseconds(100));
     mapping_cpu_s = ThreadCpuSeconds();
   });
-  const Flight flight = Fly(o, source.get(), &vo, comm.get(), stop);
+  const Flight flight = Fly(o, source.get(), &vo, comm.get(), &gauges, stop);
   vo.WaitUntilMappingIdle();
   mapping_run = false;
   vo.Stop();
@@ -353,6 +374,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   if (comm) {
     // The last keyframes still need the server's acknowledgement (resends included).
     drained = comm->WaitDrained(std::chrono::milliseconds(static_cast<int64_t>(o.drain_s * 1000)));
+    if (metrics) metrics->Stop();
     comm->Stop();
     if (!drained) spdlog::warn("{} keyframes still unacknowledged after {:.0f} s", comm->Stats().kfs_unacked, o.drain_s);
   }

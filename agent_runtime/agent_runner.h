@@ -31,6 +31,8 @@ struct RunOptions {
   bool no_acks = false;          ///< standalone: behave as if the server never acknowledges
   double progress_period_s = 2.0;
   double drain_s = 30.0;         ///< connected: wait at most this long for the last acks
+  int metrics_port = -1;         ///< --metrics: Prometheus endpoint port (-1: off, 0: any free port)
+  std::string metrics_bind = "127.0.0.1";
   VoOptions vo;
   /// Bag-of-words vocabulary for relocalization: empty = the built-in one, "none" = brute
   /// force over the local map.

@@ -64,6 +64,10 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   g.vocab = app->add_option("--vocab", c.vocabulary,
                             "bag-of-words vocabulary for relocalization (default: built-in; none: brute force)");
   app->add_flag("--no-acks", run.no_acks, "standalone: act as if the server never acknowledges (N+B, then drops)");
+  app->add_option("--metrics", run.metrics_port,
+                  "serve Prometheus metrics at http://BIND:PORT/metrics (0: any free port, printed; docs/monitoring.md)");
+  app->add_option("--metrics-bind", run.metrics_bind, "address the metrics endpoint listens on (0.0.0.0: the network)")
+      ->capture_default_str();
   app->add_option("--drain", run.drain_s, "connected: wait this long for the last acknowledgements [s]")
       ->capture_default_str();
   g.no_sharing = app->add_flag("--no-map-sharing", "do not integrate the keyframes the server sends back");

@@ -20,6 +20,7 @@ TEST_PACKAGES=(
   libgtest-dev libgmock-dev
   dpkg-dev file  # Debian packages (cpack DEB: dpkg-shlibdeps, file); ctest packaging_debian
   chromium       # the map view page in a headless browser (ctest MapViewPage.*)
+  python3-prometheus-client  # parses /metrics in a test (Prometheus' own text-format parser)
 )
 [ "$demo_only" = 1 ] || PACKAGES+=("${TEST_PACKAGES[@]}")
 

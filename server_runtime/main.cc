@@ -10,6 +10,8 @@
 #include <glog/logging.h>
 #include <spdlog/spdlog.h>
 
+#include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -199,6 +201,13 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
   return backend;
 }
 
+// Autosave's course for /metrics: written by the main thread, read by the map view's HTTP
+// threads (atomics; no lock).
+struct AutosaveFacts {
+  std::atomic<double> last_s{-1.0};  // comm elapsed time of the last save or unchanged check
+  std::atomic<int64_t> failures{0};
+};
+
 // What runs while the daemon is up. Destroyed in reverse order: the map view and the status
 // writer before the comm module, the comm module before the stage threads and the back-end.
 struct Services {
@@ -208,6 +217,7 @@ struct Services {
   std::unique_ptr<server::ServerComm> comm;
   std::unique_ptr<server::StatusPublisher> status;
   std::unique_ptr<server::MapViewServer> view;
+  std::shared_ptr<AutosaveFacts> autosave = std::make_shared<AutosaveFacts>();
 };
 
 // Everything after the back-end: stage threads, DDS, status writer, map view; then intake starts.
@@ -226,8 +236,16 @@ bool StartServices(const ServerArgs& a, Services* s, std::string* error) {
                a.config.map_sharing ? a.config.neighbourhood_k : 0);
   if (a.map_view.enabled()) {
     const server::ServerComm* comm = s->comm.get();
-    s->view = server::MapViewServer::Start(a.map_view, s->backend.get(), [comm] {
-      return server::MapViewHostStatus(comm->Stats(), comm->Traffic());
+    const bool autosaving = a.config.autosave_s > 0.0 && !a.config.save_map.empty();
+    s->view = server::MapViewServer::Start(a.map_view, s->backend.get(), [comm, autosaving, facts = s->autosave] {
+      const server::ServerCommStats stats = comm->Stats();
+      nlohmann::json host = server::MapViewHostStatus(stats, comm->Traffic());
+      if (autosaving) {
+        const double last = facts->last_s.load();
+        host["autosave_age_s"] = last < 0.0 ? -1.0 : std::round((stats.elapsed_s - last) * 10.0) / 10.0;
+        host["autosave_failures"] = facts->failures.load();
+      }
+      return host;
     }, error);
     if (!s->view) return false;
     spdlog::info("map view on {}", s->view->url());
@@ -284,10 +302,14 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
       const int64_t version = StackVersion(*s.backend);
       if (version == saved_version) {
         s.comm->OnPersisted(acked_through);
+        s.autosave->last_s = stats.elapsed_s;
       } else if (SaveMapStack(*s.backend, a.config.save_map, "autosave")) {
         saved_version = version;
         daemon.last_save_s = stats.elapsed_s;
         s.comm->OnPersisted(acked_through);
+        s.autosave->last_s = stats.elapsed_s;
+      } else {
+        ++s.autosave->failures;
       }
       next_autosave = Clock::now() + seconds(a.config.autosave_s);
     }

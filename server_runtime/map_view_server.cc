@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "server_runtime/map_view_api.h"
+#include "server_runtime/prometheus_metrics.h"
 
 // After every Eigen header: httplib.h brings <resolv.h>, whose `_res` macro breaks Eigen's
 // templates parsed after it.
@@ -101,6 +102,14 @@ bool MapViewServer::Setup(std::string* error) {
       }
     }
     SetJson(res, HandleApiRequest(*model_.Latest(), req.path, params, HttpCounters()));
+  });
+  // Prometheus scrapes (docs/monitoring.md): a status taken now, not the view's snapshot.
+  http_->Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+    ++metrics_requests_;
+    nlohmann::json status = model_.CurrentStatus();
+    status["http"] = HttpCounters()["http"];
+    res.set_content(ServerMetricsText(status), kPrometheusContentType);
+    res.set_header("Cache-Control", "no-store");
   });
   // Read-only API: any other method is refused with a clear 405.
   const auto refuse = [](const httplib::Request& req, httplib::Response& res) {
@@ -203,6 +212,7 @@ nlohmann::json MapViewServer::HttpCounters() const {
             {"api_bytes", api_bytes_.load()},
             {"static_bytes", static_bytes_.load()},
             {"errors", errors_.load()},
+            {"metrics_requests", metrics_requests_.load()},
             {"refresh_hz", options_.refresh_hz}}}};
 }
 

@@ -71,7 +71,7 @@ class MapViewServer {
   std::unique_ptr<httplib::Server> http_;
   int port_ = -1;
 
-  std::atomic<int64_t> requests_{0}, api_requests_{0}, api_bytes_{0}, static_bytes_{0}, errors_{0};
+  std::atomic<int64_t> requests_{0}, api_requests_{0}, api_bytes_{0}, static_bytes_{0}, errors_{0}, metrics_requests_{0};
   std::mutex mutex_;  // guards last_request_, refreshes_, stopping_; leaf
   std::condition_variable cv_;
   std::chrono::steady_clock::time_point last_request_{};

@@ -176,6 +176,16 @@ void MapViewModel::Diff(const MapViewSnapshot& prev, MapViewSnapshot* next, bool
       [](const ViewEdge& a, const ViewEdge& b) { return a.weight != b.weight; }, &next->removed_edges);
 }
 
+nlohmann::json MapViewModel::CurrentStatus() {
+  MapViewSnapshot next;
+  double max_hold_us = 0.0;
+  const MapStackSnapshot stack = backend_->Snapshot();
+  next.events = stack.events;
+  BuildStatus(stack, &next, &max_hold_us);
+  next.status["server_time_s"] = std::chrono::duration<double>(Clock::now() - start_).count();
+  return next.status;
+}
+
 void MapViewModel::Refresh() {
   const auto t0 = Clock::now();
   const auto prev = Latest();

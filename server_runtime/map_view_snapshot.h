@@ -94,6 +94,9 @@ class MapViewModel {
   /// Copies the back-end's state into a new snapshot (diffed against the previous one).
   void Refresh();
   std::shared_ptr<const MapViewSnapshot> Latest() const;
+  /// The status part alone, taken now (no map copy): what /metrics renders, so a scrape
+  /// never reads a snapshot the idle view stopped refreshing.
+  nlohmann::json CurrentStatus();
 
  private:
   void CopyMaps(const MapStackSnapshot& stack, MapViewSnapshot* next, double* max_hold_us);

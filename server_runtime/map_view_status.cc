@@ -75,6 +75,8 @@ void MapViewModel::BuildStatus(const MapStackSnapshot& stack, MapViewSnapshot* n
       a["batches_dropped"] = it->second.batches_dropped;
     }
     if (const auto it = queues.agent_batches.find(id); it != queues.agent_batches.end()) a["queue"] = it->second;
+    if (const auto it = queues.agent_bytes.find(id); it != queues.agent_bytes.end()) a["queue_bytes"] = it->second;
+    if (const auto it = queues.agent_lag_s.find(id); it != queues.agent_lag_s.end()) a["lag_s"] = Round(it->second, 1e-3);
   }
   nlohmann::json host = nlohmann::json::object();
   try {
@@ -92,6 +94,8 @@ void MapViewModel::BuildStatus(const MapStackSnapshot& stack, MapViewSnapshot* n
     host.erase("agents");
   }
 
+  double global_ba_s = 0.0;
+  for (const auto& [kfs, seconds] : stats.global_ba_seconds) global_ba_s += seconds;
   nlohmann::json map_list = nlohmann::json::array();
   size_t keyframes = 0, points = 0;
   for (const MapSummary& m : maps) {
@@ -117,6 +121,7 @@ void MapViewModel::BuildStatus(const MapStackSnapshot& stack, MapViewSnapshot* n
         {"fusions", stats.fusions},
         {"loops", stats.loops},
         {"global_bas", stats.global_ba_applied},
+        {"global_ba_seconds", Round(global_ba_s, 1e-3)},
         {"keyframes_removed", stats.keyframes_removed},
         {"events", next->events.size()}}},
       {"queues",

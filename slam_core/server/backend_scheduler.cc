@@ -63,6 +63,7 @@ BackendScheduler::Admission BackendScheduler::Admit(
     q.last_admitted = Clock::now();
     if (!batch.empty()) {
       q.batches.push_back(std::move(batch));
+      q.arrivals.push_back(q.last_admitted);
       q.bytes += bytes;
     }
     known_.insert(agent);
@@ -106,6 +107,8 @@ std::optional<BackendScheduler::AgentWork> BackendScheduler::TakeBatch(AgentId a
   AgentQueue& q = it->second;
   AgentWork work{std::move(q.batches.front()), q.registration.get()};
   q.batches.pop_front();
+  q.busy_arrival = q.arrivals.front();
+  q.arrivals.pop_front();
   q.bytes -= ApproxBatchBytes(work.batch);
   q.busy = true;
   return work;
@@ -286,9 +289,13 @@ QueueDepths BackendScheduler::Depths() const {
   QueueDepths d;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
+    const auto now = Clock::now();
     for (const auto& [a, q] : queues_) {
       d.agent_batches[a] = q.batches.size() + (q.busy ? 1 : 0);
       d.agent_bytes[a] = q.bytes;
+      // The oldest batch not yet done: the one in process, else the queue's first.
+      const Clock::time_point* oldest = q.busy ? &q.busy_arrival : q.arrivals.empty() ? nullptr : &q.arrivals.front();
+      d.agent_lag_s[a] = oldest ? std::chrono::duration<double>(now - *oldest).count() : 0.0;
     }
   }
   {

@@ -118,8 +118,10 @@ class BackendScheduler {
  private:
   struct AgentQueue {
     std::deque<AgentBatch> batches;
+    std::deque<Clock::time_point> arrivals;  ///< when each queued batch was admitted
     size_t bytes = 0;  ///< ApproxBatchBytes of the queued batches
     bool busy = false;
+    Clock::time_point busy_arrival;  ///< admission time of the batch being processed
     Clock::time_point last_admitted;
     std::unique_ptr<AgentRegistration> registration;
   };

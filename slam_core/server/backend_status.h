@@ -50,6 +50,9 @@ struct BackendStats {
 struct QueueDepths {
   std::map<AgentId, size_t> agent_batches;
   std::map<AgentId, size_t> agent_bytes;  ///< ApproxBatchBytes of the batches waiting
+  /// How long the oldest batch not yet registered (in process or waiting) has been in the
+  /// back-end; 0 when the agent's queue is empty: its registration lag.
+  std::map<AgentId, double> agent_lag_s;
   size_t place_recognition = 0;
   size_t global_ba_pending = 0;
   bool global_ba_running = false;

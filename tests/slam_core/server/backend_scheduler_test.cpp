@@ -140,6 +140,24 @@ TEST_F(SchedulerTest, OneHandlerPerAgentAtATimeInSubmissionOrder) {
   EXPECT_EQ(second->registration, first->registration);
 }
 
+// Registration lag (GET /metrics): the age of the oldest batch not yet done, whether it
+// waits or is being registered; 0 once the queue is empty.
+TEST_F(SchedulerTest, RegistrationLagIsTheAgeOfTheOldestBatchNotYetDone) {
+  Admit(Batch(1));
+  std::this_thread::sleep_for(milliseconds(30));
+  Admit(Batch(1));
+  double lag = scheduler_.Depths().agent_lag_s.at(1);
+  EXPECT_GE(lag, 0.03);
+  ASSERT_TRUE(scheduler_.TakeBatch(1, milliseconds(0)));
+  EXPECT_GE(scheduler_.Depths().agent_lag_s.at(1), lag) << "the batch in process still counts";
+  scheduler_.BatchDone(1);
+  lag = scheduler_.Depths().agent_lag_s.at(1);
+  EXPECT_LT(lag, 0.03) << "now the second batch, admitted 30 ms later, is the oldest";
+  ASSERT_TRUE(scheduler_.TakeBatch(1, milliseconds(0)));
+  scheduler_.BatchDone(1);
+  EXPECT_EQ(scheduler_.Depths().agent_lag_s.at(1), 0.0);
+}
+
 TEST_F(SchedulerTest, IdleOnlyWhenNothingIsQueuedOrRunning) {
   EXPECT_TRUE(scheduler_.Idle());
   Admit(Batch(1));
