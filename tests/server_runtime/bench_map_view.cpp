@@ -187,6 +187,7 @@ int main(int argc, char** argv) {
                 refresh[2], status["snapshot"]["max_lock_hold_us"].get<double>(),
                 status["snapshot"]["max_lock_hold_us_ever"].get<double>());
     PrintLatency(client, "/api/status", repeats);
+    PrintLatency(client, "/metrics", repeats);
     PrintLatency(client, "/api/map?since=0", repeats);
     PrintLatency(client, "/api/map?since=0&min_weight=50", repeats);
     PrintLatency(client, "/api/events", repeats);
