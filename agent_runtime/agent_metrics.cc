@@ -7,6 +7,38 @@
 #include "runtime_common/prometheus_text.h"
 
 namespace ccm::agent {
+namespace {
+
+// A comm counter and the metric it becomes.
+struct LinkField {
+  const char* name;
+  const char* type;
+  const char* help;
+  std::uint64_t AgentCommStats::*value;
+};
+
+constexpr LinkField kLinkFields[] = {
+    {"ccm_agent_keyframes_sent_total", "counter", "Keyframes sent (first transmissions).", &AgentCommStats::kfs_sent},
+    {"ccm_agent_keyframes_resent_total", "counter", "Keyframes sent again (gap, timeout, server restart).",
+     &AgentCommStats::kfs_resent},
+    {"ccm_agent_keyframes_acked_total", "counter", "Keyframes the server acknowledged.", &AgentCommStats::kfs_acked},
+    {"ccm_agent_keyframes_unacked", "gauge", "Keyframes sent and not acknowledged yet.", &AgentCommStats::kfs_unacked},
+    {"ccm_agent_keyframes_unpersisted", "gauge", "Keyframes acknowledged but not yet in the server's map file.",
+     &AgentCommStats::kfs_unpersisted},
+    {"ccm_agent_map_points_sent_total", "counter", "Map points sent.", &AgentCommStats::mps_sent},
+    {"ccm_agent_backlog_bytes", "gauge", "Packed data waiting for the rate limit.", &AgentCommStats::backlog_bytes},
+    {"ccm_agent_deferred_items", "gauge", "Keyframes and points held back for new_keyframe_delay_s.",
+     &AgentCommStats::deferred},
+    {"ccm_agent_write_failures_total", "counter", "DDS writes that failed.", &AgentCommStats::write_failures},
+    {"ccm_agent_server_messages_total", "counter", "Messages from the server.", &AgentCommStats::server_msgs},
+    {"ccm_agent_server_messages_rejected_total", "counter", "Server messages refused by validation.",
+     &AgentCommStats::server_msgs_rejected},
+    {"ccm_agent_server_keyframes_received_total", "counter", "Keyframes the server shared back.",
+     &AgentCommStats::server_keyframes_received},
+    {"ccm_agent_server_restarts_total", "counter", "Server restarts seen (new epochs).", &AgentCommStats::server_restarts},
+};
+
+}  // namespace
 
 std::string AgentMetricsText(int agent_id, const FlightGauges& g, const AgentCommStats* comm) {
   rt::PrometheusText t;
@@ -24,27 +56,9 @@ std::string AgentMetricsText(int agent_id, const FlightGauges& g, const AgentCom
     t.Add("ccm_agent_tracking_state", "gauge", "Tracking state (1: current).", s, state == value ? 1.0 : 0.0);
   }
   if (!comm) return t.Text();
-  const AgentCommStats& c = *comm;
-  const auto add = [&](const char* name, const char* type, const char* help, double v) { t.Add(name, type, help, l, v); };
-  add("ccm_agent_keyframes_sent_total", "counter", "Keyframes sent (first transmissions).", static_cast<double>(c.kfs_sent));
-  add("ccm_agent_keyframes_resent_total", "counter", "Keyframes sent again (gap, timeout, server restart).",
-      static_cast<double>(c.kfs_resent));
-  add("ccm_agent_keyframes_acked_total", "counter", "Keyframes the server acknowledged.", static_cast<double>(c.kfs_acked));
-  add("ccm_agent_keyframes_unacked", "gauge", "Keyframes sent and not acknowledged yet.", static_cast<double>(c.kfs_unacked));
-  add("ccm_agent_keyframes_unpersisted", "gauge", "Keyframes acknowledged but not yet in the server's map file.",
-      static_cast<double>(c.kfs_unpersisted));
-  add("ccm_agent_map_points_sent_total", "counter", "Map points sent.", static_cast<double>(c.mps_sent));
-  add("ccm_agent_backlog_bytes", "gauge", "Packed data waiting for the rate limit.", static_cast<double>(c.backlog_bytes));
-  add("ccm_agent_deferred_items", "gauge", "Keyframes and points held back for new_keyframe_delay_s.",
-      static_cast<double>(c.deferred));
-  add("ccm_agent_write_failures_total", "counter", "DDS writes that failed.", static_cast<double>(c.write_failures));
-  add("ccm_agent_server_messages_total", "counter", "Messages from the server.", static_cast<double>(c.server_msgs));
-  add("ccm_agent_server_messages_rejected_total", "counter", "Server messages refused by validation.",
-      static_cast<double>(c.server_msgs_rejected));
-  add("ccm_agent_server_keyframes_received_total", "counter", "Keyframes the server shared back.",
-      static_cast<double>(c.server_keyframes_received));
-  add("ccm_agent_server_restarts_total", "counter", "Server restarts seen (new epochs).",
-      static_cast<double>(c.server_restarts));
+  for (const LinkField& field : kLinkFields) {
+    t.Add(field.name, field.type, field.help, l, static_cast<double>(comm->*field.value));
+  }
   return t.Text();
 }
 

@@ -12,7 +12,6 @@ Exit 77 (skipped) if python3-prometheus-client is missing.
 import argparse
 import json
 import os
-import re
 import shutil
 import signal
 import subprocess
@@ -20,15 +19,10 @@ import sys
 import time
 import urllib.request
 
-try:
-    from prometheus_client.parser import text_string_to_metric_families
-except ImportError:
-    # Debian's package lives in the system interpreter's dist-packages; a python3 earlier in
-    # PATH (pyenv, a venv) does not see it.
-    if os.path.exists("/usr/bin/python3") and os.path.realpath(sys.executable) != os.path.realpath("/usr/bin/python3"):
-        os.execv("/usr/bin/python3", ["/usr/bin/python3"] + sys.argv)
-    print("python3-prometheus-client not installed (deploy/install-deps.sh installs it); test skipped")
-    sys.exit(77)
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from prometheus_scrape import load_parser, wait_for_url  # noqa: E402
+
+text_string_to_metric_families = load_parser()
 
 EXPECTED = {  # family (as the parser names it) -> type
     "ccm_server_agents": "gauge", "ccm_server_maps": "gauge", "ccm_server_keyframes": "gauge",
@@ -81,17 +75,14 @@ def main():
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
     out = os.path.join(args.work, "out")
-    log = open(os.path.join(args.work, "replay.log"), "w")
+    log_path = os.path.join(args.work, "replay.log")
     proc = subprocess.Popen([args.replay, "--sim", args.scenario, "--vocab", args.vocab, "--out", out, "--http", "0",
-                             "--http-linger", "-1"], stdout=subprocess.PIPE, stderr=log, text=True)
+                             "--http-linger", "-1"], stdout=open(log_path, "w"), stderr=subprocess.STDOUT)
     try:
-        base, finished = None, False
-        while base is None:
-            line = proc.stdout.readline()
-            if not line:
-                fail("ccm_replay ended before serving (see %s/replay.log)" % args.work)
-            m = re.search(r"map view on (http://\S+)", line)
-            base = m.group(1) if m else None
+        finished = False
+        base = wait_for_url(lambda: open(log_path).read(), r"map view on (http://\S+)", proc)
+        if base is None:
+            fail("ccm_replay ended before serving (see %s)" % log_path)
         scrapes, previous = 0, {}
         while not finished:
             families = scrape(base)

@@ -13,7 +13,6 @@ parser.
 import argparse
 import json
 import os
-import re
 import shutil
 import signal
 import subprocess
@@ -21,13 +20,10 @@ import sys
 import time
 import urllib.request
 
-try:
-    from prometheus_client.parser import text_string_to_metric_families
-except ImportError:
-    if os.path.exists("/usr/bin/python3") and os.path.realpath(sys.executable) != os.path.realpath("/usr/bin/python3"):
-        os.execv("/usr/bin/python3", ["/usr/bin/python3"] + sys.argv)
-    print("python3-prometheus-client not installed (deploy/install-deps.sh installs it); test skipped")
-    sys.exit(77)
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from prometheus_scrape import load_parser, wait_for_url  # noqa: E402
+
+text_string_to_metric_families = load_parser()
 
 DOMAIN = "197"
 AUTOSAVE_S = 2.0
@@ -55,18 +51,6 @@ def get(samples, name, **labels):
     return samples.get((name, tuple(sorted(labels.items()))))
 
 
-def wait_for_url(log_path, pattern, proc, timeout_s=60):
-    deadline = time.time() + timeout_s
-    while time.time() < deadline:
-        if proc.poll() is not None:
-            return None
-        m = re.search(pattern, open(log_path).read())
-        if m:
-            return m.group(1)
-        time.sleep(0.2)
-    return None
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--server", required=True)
@@ -84,8 +68,8 @@ def main():
                               "400", "--rate", "realtime", "--drain", "30", "--qos", args.qos, "--domain", DOMAIN,
                               "--metrics", "0"], stdout=open(agent_log, "w"), stderr=subprocess.STDOUT)
     procs = (server, agent)
-    server_url = wait_for_url(server_log, r"map view on (http://\S+)", server)
-    agent_url = wait_for_url(agent_log, r"metrics on (http://\S+)", agent)
+    server_url = wait_for_url(lambda: open(server_log).read(), r"map view on (http://\S+)", server)
+    agent_url = wait_for_url(lambda: open(agent_log).read(), r"metrics on (http://\S+)", agent)
     if not server_url or not agent_url:
         fail("no endpoint: server %s, agent %s (logs in %s)" % (server_url, agent_url, args.work), procs)
     server_url = server_url.rstrip("/") + "/"
