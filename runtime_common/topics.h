@@ -16,6 +16,11 @@ inline constexpr const char* kTopicAgentStatus = "ccm/agent_status";         // 
 inline constexpr const char* kTopicServerToAgent = "ccm/server_to_agent";    // ServerToAgent
 // Server -> operators (ccm_ctl status; idl/ccm_status.idl).
 inline constexpr const char* kTopicServerStatus = "ccm/server_status";        // ServerStatus
+// Server -> ROS 2 tools (ccm_server --ros2): ROS 2 topic /X travels as DDS topic "rt/X".
+inline constexpr const char* kTopicRos2Tf = "rt/tf";                          // tf2_msgs/TFMessage
+inline constexpr const char* kTopicRos2MapPoints = "rt/ccm/map_points";       // sensor_msgs/PointCloud2
+inline std::string Ros2AgentPathTopic(int agent_id) { return "rt/ccm/agent_" + std::to_string(agent_id) + "/path"; }
+inline std::string Ros2AgentPoseTopic(int agent_id) { return "rt/ccm/agent_" + std::to_string(agent_id) + "/pose"; }
 /// The DDS partition of one agent: the agent writes all its data in it (so access control
 /// can tell agents apart: docs/security.md) and the server writes that agent's
 /// ServerToAgent messages in it, so they reach only that agent.
@@ -36,5 +41,9 @@ inline constexpr const char* kProfileServerAckWriter = "ccm_server_ack_writer";
 inline constexpr const char* kProfileServerReader = "ccm_server_reader";
 inline constexpr const char* kProfileServerStatusWriter = "ccm_server_status_writer";
 inline constexpr const char* kProfileServerStatusReader = "ccm_server_status_reader";
+// ROS 2-visible outputs of ccm_server --ros2 (idl/ros2): ROS 2's QoS defaults (RELIABLE,
+// VOLATILE, KEEP_LAST 10); the reader profile is what a ROS 2 subscriber uses by default.
+inline constexpr const char* kProfileRos2Writer = "ccm_ros2_writer";
+inline constexpr const char* kProfileRos2Reader = "ccm_ros2_reader";
 
 }  // namespace ccm::rt

@@ -26,6 +26,7 @@
 #include "server_runtime/backend_runner.h"
 #include "server_runtime/map_view_server.h"
 #include "server_runtime/mission_timeline.h"
+#include "server_runtime/ros2_outputs.h"
 #include "server_runtime/server_comm.h"
 #include "server_runtime/server_outputs.h"
 #include "server_runtime/server_status.h"
@@ -109,7 +110,7 @@ struct ServerArgs {
 // Options given on the command line win over the config file's keys.
 struct GivenOnCommandLine {
   rt::DdsOptionsGiven dds;
-  CLI::Option *vocab, *load, *save, *map_file, *autosave;
+  CLI::Option *vocab, *load, *save, *map_file, *autosave, *ros2;
 };
 
 GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
@@ -126,6 +127,8 @@ GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
   app->add_option("--out", a->out_dir,
                   "on exit write trajectories (TUM), summary.json, server.json, map.ply, map_top.png");
   app->add_flag("--no-final-ba", a->no_final_ba, "skip the global BA of every map on exit");
+  g.ros2 = app->add_flag("--ros2", c.ros2_outputs,
+                         "publish paths, poses, tf and the map for ROS 2 tools on the domain (docs/ros2.md)");
   app->add_option("--duration", a->duration_s, "stop after this many seconds (0: until Ctrl-C)");
   app->add_option("--idle-exit", a->idle_exit_s,
                   "stop once every agent has left and no data arrived for this long, after the first [s]");
@@ -148,6 +151,7 @@ bool MergeConfigFile(const GivenOnCommandLine& g, ServerArgs* a, std::string* er
   if (*g.save) c.save_map = cli.save_map;
   if (*g.map_file) c.map_file = cli.map_file;
   if (*g.autosave) c.autosave_s = cli.autosave_s;
+  if (*g.ros2) c.ros2_outputs = true;
   return true;
 }
 
@@ -217,6 +221,7 @@ struct Services {
   std::unique_ptr<server::ServerComm> comm;
   std::unique_ptr<server::StatusPublisher> status;
   std::unique_ptr<server::MapViewServer> view;
+  std::unique_ptr<server::Ros2Outputs> ros2;  // --ros2
   std::shared_ptr<AutosaveFacts> autosave = std::make_shared<AutosaveFacts>();
 };
 
@@ -227,6 +232,11 @@ bool StartServices(const ServerArgs& a, Services* s, std::string* error) {
   if (!s->comm) return false;
   s->status = server::StatusPublisher::Create(s->comm->session(), error);
   if (!s->status) return false;
+  if (a.config.ros2_outputs) {
+    s->ros2 = server::Ros2Outputs::Create(s->comm->session(), a.config.Ros2Options(), error);
+    if (!s->ros2) return false;
+    spdlog::info("ROS 2 outputs on: rt/tf, rt/ccm/map_points, rt/ccm/agent_<id>/path and /pose (docs/ros2.md)");
+  }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   if (a.session.fault.enabled()) spdlog::warn("fault injection active: {}", a.session.fault.ToString());
@@ -292,6 +302,10 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
       daemon.uptime_s = stats.elapsed_s;
       s.status->Publish(server::MakeServerStatus(*s.backend, stats, s.comm->Traffic(), daemon));
       next_status = now + seconds(a.config.status_period_s);
+    }
+    if (s.ros2) {
+      std::string ros2_error;
+      if (!s.ros2->PublishDue(*s.backend, stats.elapsed_s, &ros2_error)) spdlog::warn("ROS 2 outputs: {}", ros2_error);
     }
     if (a.config.autosave_s > 0.0 && !a.config.save_map.empty() && now >= next_autosave) {
       // Persisted acks (docs/protocol.md): every ack written so far is for a keyframe that

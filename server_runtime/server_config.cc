@@ -1,6 +1,7 @@
 #include "server_runtime/server_config.h"
 
 #include "runtime_common/yaml_config.h"
+#include "server_runtime/ros2_outputs.h"
 
 namespace ccm::server {
 
@@ -19,7 +20,16 @@ std::string ServerConfig::Validate() const {
   if (participant_profile.empty()) return "participant_profile must not be empty";
   if (!(autosave_s == 0.0 || autosave_s >= 1.0)) return "autosave_s must be 0 (off) or >= 1";
   if (!(status_period_s >= 0.1 && status_period_s <= 60.0)) return "status_period_s must be in [0.1, 60]";
+  if (ros2_outputs) return Ros2Options().Validate();
   return {};
+}
+
+Ros2OutputOptions ServerConfig::Ros2Options() const {
+  Ros2OutputOptions o;
+  o.period_s = ros2_period_s;
+  o.cloud_period_s = ros2_cloud_period_s;
+  o.max_cloud_points = static_cast<size_t>(std::max(0, ros2_max_cloud_points));
+  return o;
 }
 
 bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string* error) {
@@ -38,6 +48,10 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("max_agents", &config->max_agents);
   r.Get("map_sharing", &config->map_sharing);
   r.Get("neighbourhood_k", &config->neighbourhood_k);
+  r.Get("ros2_outputs", &config->ros2_outputs);
+  r.Get("ros2_period_s", &config->ros2_period_s);
+  r.Get("ros2_cloud_period_s", &config->ros2_cloud_period_s);
+  r.Get("ros2_max_cloud_points", &config->ros2_max_cloud_points);
   r.Get("share_own_keyframes_after_s", &config->share_own_keyframes_after_s);
   r.Get("global_ba_max_free_keyframes", &config->global_ba_max_free_keyframes);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);

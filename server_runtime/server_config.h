@@ -6,6 +6,10 @@
 #include "slam_core/server/server_options.h"
 
 namespace ccm::server {
+struct Ros2OutputOptions;
+}
+
+namespace ccm::server {
 
 struct ServerConfig {
   int domain_id = 0;                 // DDS domain, 0..232
@@ -20,6 +24,10 @@ struct ServerConfig {
   int max_agents = 16;
   bool map_sharing = true;           // send each agent the k keyframes most covisible with its reference KF
   int neighbourhood_k = 5;           // that k (CCM-SLAM: 5)
+  bool ros2_outputs = false;         // publish paths, poses, tf and the map for ROS 2 tools (docs/ros2.md)
+  double ros2_period_s = 1.0;        // paths, poses, tf
+  double ros2_cloud_period_s = 5.0;  // the point cloud
+  int ros2_max_cloud_points = 50000;
   double share_own_keyframes_after_s = 0.0;  // > 0: also an agent's own keyframes this much older than its reference (experimental)
   int global_ba_max_free_keyframes = ServerOptions{}.optimization.global_ba_max_free_keyframes;  // a loop or fusion in a bigger map: BA of its region (0: whole map)
   double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)
@@ -33,6 +41,8 @@ struct ServerConfig {
   double status_period_s = 1.0;      // ServerStatus topic period (ccm_ctl status)
 
   std::string Validate() const;
+  /// The ros2_* keys as the ROS 2 publisher's options.
+  Ros2OutputOptions Ros2Options() const;
 };
 
 bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string* error);

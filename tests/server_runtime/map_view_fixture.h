@@ -48,6 +48,10 @@ class ViewBackend {
     map->map().AddKeyframe(std::make_shared<KeyFrame>(id, static_cast<int64_t>(id.counter()) * 50000000, camera_, f,
                                                       pyramid_, SE3(Eigen::Quaterniond::Identity(), {x_m, 0, 0})));
     const KeyframeId prev = last_[agent];
+    ServerKeyframeInfo info;  // as registration records it (AgentTrajectory reads it)
+    info.segment = MapId::Make(agent, 1);
+    info.predecessor = prev;
+    map->SetInfo(id, info);
     for (int i = 0; i < new_points; ++i) {
       const MapPointId mp = MapPointId::Make(agent, ++counters.second);
       map->map().AddMapPoint(std::make_shared<MapPoint>(mp, Eigen::Vector3d(x_m + 0.01 * i, 0.5, 5), id, OrbDescriptor{}));

@@ -50,7 +50,8 @@ TEST(QosProfiles, EveryShippedFileCreatesEveryProfile) {
                                 rt::kProfileUpdateWriter, rt::kProfileUpdateReader, rt::kProfileStatusWriter,
                                 rt::kProfileStatusReader, rt::kProfileServerWriter, rt::kProfileServerAckWriter,
                                 rt::kProfileServerReader,
-                                rt::kProfileServerStatusWriter, rt::kProfileServerStatusReader}) {
+                                rt::kProfileServerStatusWriter, rt::kProfileServerStatusReader,
+                                rt::kProfileRos2Writer, rt::kProfileRos2Reader}) {
       EXPECT_NE(results[0].output.find(std::string(profile) + "\n"), std::string::npos)
           << file << " lacks profile " << profile << ":\n" << results[0].output;
     }
