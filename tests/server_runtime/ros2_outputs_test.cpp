@@ -107,27 +107,29 @@ TEST(Ros2Outputs, PlainDdsReadersWithRos2NamesReceiveThem) {
   EXPECT_TRUE(outputs->PublishDue(t.b.backend(), 0.5, &error));  // not due: nothing
   EXPECT_EQ(outputs->rounds(), 1);
   t.b.AddKeyframe(1, 3.0, 5);
-  ASSERT_TRUE(outputs->PublishDue(t.b.backend(), 6.0, &error)) << error;  // due, cloud too
-  EXPECT_EQ(outputs->rounds(), 2);
+  // A reader's match can come before the writer's (discovery is not symmetric), and ROS 2's
+  // QoS is VOLATILE: a round written before the writer saw the reader is not delivered. So
+  // rounds go out (each due, each with the cloud) until one arrives, as a ROS 2 tool sees it.
   std::optional<nav_msgs::msg::dds_::Path_> p;
-  while (auto next = path->Pop(milliseconds(3000))) {
-    p = next;
-    if (p->poses().size() == 4) break;
+  std::optional<tf2_msgs::msg::dds_::TFMessage_> m;
+  std::optional<sensor_msgs::msg::dds_::PointCloud2_> c;
+  for (int round = 0; round < 20 && !(p && m && c); ++round) {
+    ASSERT_TRUE(outputs->PublishDue(t.b.backend(), 6.0 + 5.0 * round, &error)) << error;
+    const auto until = std::chrono::steady_clock::now() + milliseconds(500);
+    while (std::chrono::steady_clock::now() < until) {
+      if (auto next = path->Pop(milliseconds(20)); next && next->poses().size() == 4) p = next;
+      if (auto next = tf->Pop(milliseconds(0)); next && next->transforms()[0].transform().translation().x() == 3.0) {
+        m = next;
+      }
+      if (auto next = cloud->Pop(milliseconds(0))) c = next;
+    }
   }
-  ASSERT_TRUE(p);
-  ASSERT_EQ(p->poses().size(), 4u);
+  EXPECT_GE(outputs->rounds(), 2);
+  ASSERT_TRUE(p && m && c) << "path " << p.has_value() << " tf " << m.has_value() << " cloud " << c.has_value();
   EXPECT_DOUBLE_EQ(p->poses().back().pose().position().x(), 3.0);
   EXPECT_EQ(p->header().frame_id(), "map");
-  std::optional<tf2_msgs::msg::dds_::TFMessage_> m;
-  while (auto next = tf->Pop(milliseconds(3000))) {
-    m = next;
-    if (m->transforms()[0].transform().translation().x() == 3.0) break;  // the second round's
-  }
-  ASSERT_TRUE(m);
   ASSERT_EQ(m->transforms().size(), 2u);
-  EXPECT_DOUBLE_EQ(m->transforms()[0].transform().translation().x(), 3.0);
-  const auto c = cloud->Pop(milliseconds(3000));
-  ASSERT_TRUE(c);
+  EXPECT_EQ(m->transforms()[0].child_frame_id(), "agent_1");
   EXPECT_GE(c->width(), 15u);
   EXPECT_EQ(c->data().size(), 12u * c->width());
 }
