@@ -1,7 +1,6 @@
 #include "server_runtime/ros2_outputs.h"
 
 #include <cstring>
-#include <mutex>
 #include <set>
 #include <shared_mutex>
 
