@@ -36,6 +36,9 @@ std::string AgentConfig::Validate() const {
   if (buffer_keyframes < 0) return "buffer_keyframes (B) must be >= 0";
   if (participant_profile.empty()) return "participant_profile must not be empty";
   if (opencv_threads < 0 || opencv_threads > 64) return "opencv_threads must be in 0..64";
+  if (!camera.empty() && !ros2_image.empty()) return "give camera or ros2_image, not both";
+  if (ros2_image.empty() && !ros2_camera_info.empty()) return "ros2_camera_info needs ros2_image";
+  if (ros2_domain < -1 || ros2_domain > 232) return "ros2_domain must be in 0..232 (-1: $ROS_DOMAIN_ID)";
   if (const std::string e = vo.Validate(); !e.empty()) return "vo: " + e;
   return {};
 }
@@ -109,6 +112,9 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("vocabulary", &config->vocabulary);
   r.Get("camera", &config->camera);
   r.Get("calibration", &config->calibration);
+  r.Get("ros2_image", &config->ros2_image);
+  r.Get("ros2_camera_info", &config->ros2_camera_info);
+  r.Get("ros2_domain", &config->ros2_domain);
   r.Get("opencv_threads", &config->opencv_threads);
   if (const YAML::Node vo_node = r.Child("vo"); vo_node && r.ok()) {
     if (!vo_node.IsMap()) {

@@ -39,6 +39,9 @@ struct AgentConfig {
   // server's address is in the QoS file (initial peers or discovery server).
   std::string camera;                  // live camera ("0", /dev/video0) or video file; --video/--dataset/--sim win
   std::string calibration;             // camera calibration YAML (needed with camera); --calibration wins
+  std::string ros2_image;              // a ROS 2 camera driver's Image topic instead of `camera` (docs/ros2.md)
+  std::string ros2_camera_info;        // its CameraInfo topic; empty: beside the image topic
+  int ros2_domain = -1;                // the camera's ROS 2 domain; -1: $ROS_DOMAIN_ID, else 0
   int opencv_threads = 0;              // OpenCV worker threads (image pyramids); 0: OpenCV's default (all cores)
 
   /// The VO options the agent runs with: the `vo:` section with N and B applied.

@@ -45,6 +45,9 @@ std::string AgentMetricsText(int agent_id, const FlightGauges& g, const AgentCom
   const rt::PrometheusText::Labels l = {{"agent", std::to_string(agent_id)}};
   t.Add("ccm_agent_frames_total", "counter", "Camera frames processed.", l, static_cast<double>(g.frames.load()));
   t.Add("ccm_agent_frames_tracked_total", "counter", "Frames with a pose.", l, static_cast<double>(g.tracked.load()));
+  t.Add("ccm_agent_frames_skipped_total", "counter",
+        "Frames a live camera delivered while tracking was busy, skipped (not processed).", l,
+        static_cast<double>(g.frames_skipped.load()));
   t.Add("ccm_agent_keyframes_created_total", "counter", "Keyframes the VO made.", l,
         static_cast<double>(g.keyframes_created.load()));
   t.Add("ccm_agent_segments", "gauge", "VO map segments opened (a new one after relocalization failed).", l,

@@ -25,6 +25,7 @@ namespace ccm::agent {
 struct FlightGauges {
   std::atomic<int64_t> frames{0};
   std::atomic<int64_t> tracked{0};           ///< frames with a pose
+  std::atomic<int64_t> frames_skipped{0};    ///< a live camera's frames skipped while tracking was busy
   std::atomic<int64_t> keyframes_created{0};
   std::atomic<int64_t> segments{1};          ///< VO segments opened (1 + relocalization failures)
   std::atomic<int> state{-1};                ///< TrackingState, -1 before the first frame

@@ -18,6 +18,7 @@
 #include "agent_runtime/agent_comm.h"
 #include "agent_runtime/agent_metrics.h"
 #include "agent_runtime/cpu_usage.h"
+#include "agent_runtime/ros2_camera_source.h"
 #include "runtime_common/process_memory.h"
 #include "slam_core/common/install_paths.h"
 #include "slam_core/vo/agent_vo.h"
@@ -35,7 +36,29 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error) {
+}  // namespace
+
+std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile bool* stop, std::string* error) {
+  if (!o.ros2_image.empty()) {
+    Ros2CameraOptions r;
+    r.image_topic = o.ros2_image;
+    r.camera_info_topic = o.ros2_camera_info;
+    r.domain_id = o.ros2_domain >= 0 ? o.ros2_domain : DefaultRos2Domain();
+    r.qos_file = o.qos_file;
+    r.queue = static_cast<size_t>(o.ros2_queue);
+    r.end_after_s = o.ros2_end_after_s;
+    r.info_wait_s = o.ros2_info_wait_s;
+    r.stop = stop;
+    if (!o.calibration.empty()) {
+      CameraIntrinsics intrinsics;
+      if (const IoStatus status = ReadCalibrationYaml(o.calibration, &intrinsics); !status.ok()) {
+        *error = status.message();
+        return nullptr;
+      }
+      r.calibration = intrinsics;
+    }
+    return Ros2CameraSource::Create(r, error);
+  }
   if (!o.sim_scenario.empty()) {
 #ifndef CCM_AGENT_WITH_SIM
     *error = "this ccm_agent was built without the simulator (CCM_AGENT_ONLY): use --dataset or --video";
@@ -75,6 +98,8 @@ std::unique_ptr<FrameSource> OpenSource(const RunOptions& o, std::string* error)
   return source;
 }
 
+namespace {
+
 bool WriteTum(const std::string& path, const std::vector<KeyframePose>& poses, std::string* error) {
   Trajectory t;
   for (const auto& p : poses) t.push_back({p.stamp_ns, p.world_from_cam});
@@ -107,6 +132,12 @@ class Pacer {
   Clock::time_point start_;
 };
 
+std::string InputName(const RunOptions& o) {
+  if (!o.sim_scenario.empty()) return "sim:" + o.sim_scenario;
+  if (!o.ros2_image.empty()) return "ROS 2 " + o.ros2_image;
+  return !o.video.empty() ? o.video : o.dataset;
+}
+
 int Error(const std::string& message, int code) {
   std::cerr << "error: " << message << "\n";
   return code;
@@ -135,6 +166,7 @@ bool LoadAgentVocabulary(const RunOptions& o, std::shared_ptr<const Vocabulary>*
 // What the tracking loop leaves behind.
 struct Flight {
   int64_t frames = 0, tracked = 0;
+  int64_t skipped = 0;  ///< frames a live source skipped while tracking was busy
   double tracking_cpu_s = 0.0;  ///< the tracking thread inside TrackFrame
   double input_cpu_s = 0.0;     ///< the same thread reading / decoding / rendering frames and pacing
   std::vector<KeyframePose> ground_truth;  ///< per frame, where the source has it and it is written
@@ -160,7 +192,8 @@ void LogProgress(const Flight& f, const FrameSource& source, const TrackingResul
 // the requested pace, until the end, --max-frames or *stop.
 Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* comm, FlightGauges* gauges,
            const volatile bool* stop) {
-  Pacer pacer(o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
+  // A live camera is neither paced nor made to wait: it skips what the tracker cannot take.
+  Pacer pacer(source->live() || o.rate == "max" ? 0.0 : o.rate == "realtime" ? 1.0 : std::stod(o.rate));
   Flight f;
   f.start = Clock::now();
   const double cpu_start = ThreadCpuSeconds();
@@ -181,11 +214,12 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
     if (comm) comm->SetTrackingState(static_cast<int>(last.state));
     // Offline at full speed: let mapping finish each keyframe, as it would keep up in real
     // time; otherwise tracking races ahead on a map that lags behind (seen on KITTI).
-    if (o.rate == "max" && last.new_keyframe) vo->WaitUntilMappingIdle();
+    if (o.rate == "max" && !source->live() && last.new_keyframe) vo->WaitUntilMappingIdle();
     ++f.frames;
     f.tracked += last.world_from_cam.has_value();
     gauges->frames = f.frames;
     gauges->tracked = f.tracked;
+    gauges->frames_skipped = source->frames_skipped();
     gauges->state = static_cast<int>(last.state);
     gauges->keyframes_created += last.new_keyframe ? 1 : 0;
     gauges->segments += last.new_segment ? 1 : 0;
@@ -207,6 +241,11 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
     }
   }
   f.input_cpu_s = ThreadCpuSeconds() - cpu_start - f.tracking_cpu_s;
+  f.skipped = source->frames_skipped();
+  if (f.skipped > 0) {
+    spdlog::warn("the camera delivered faster than tracking took frames: {} frames skipped ({:.1f}% of {})", f.skipped,
+                 100.0 * f.skipped / static_cast<double>(f.skipped + f.frames), f.skipped + f.frames);
+  }
   return f;
 }
 
@@ -260,6 +299,7 @@ nlohmann::json Summary(const RunOptions& o, const Flight& f, const AgentVoStats&
                Percentile(s.mapping_ms, 0.95));
   nlohmann::json summary = {{"agent_id", o.agent_id},
                             {"frames", f.frames},
+                            {"frames_skipped", f.skipped},
                             {"tracked", f.tracked},
                             {"keyframes_created", s.keyframes_created},
                             {"keyframes_in_map", s.keyframes_in_map},
@@ -295,9 +335,13 @@ nlohmann::json Summary(const RunOptions& o, const Flight& f, const AgentVoStats&
 }  // namespace
 
 std::string RunOptions::Validate() const {
-  if (dataset.empty() + sim_scenario.empty() + video.empty() != 2) {
-    return "give exactly one of --dataset DIR, --sim SCENARIO or --video DEVICE|FILE";
+  if (dataset.empty() + sim_scenario.empty() + video.empty() + ros2_image.empty() != 3) {
+    return "give exactly one of --dataset DIR, --sim SCENARIO, --video DEVICE|FILE or --ros2-image TOPIC";
   }
+  if (ros2_image.empty() && !ros2_camera_info.empty()) return "--ros2-camera-info needs --ros2-image";
+  if (ros2_queue < 1 || ros2_queue > 1000) return "--ros2-queue must be in 1..1000";
+  if (!(ros2_end_after_s >= 0)) return "--ros2-end-after must be >= 0 (0: wait for ever)";
+  if (ros2_domain < -1 || ros2_domain > 232) return "--ros2-domain must be in 0..232";
   if (!video.empty() && calibration.empty()) return "--video needs --calibration FILE.yaml";
   if (!ParseDatasetFormat(format)) return "--format must be auto, euroc, tum or kitti, got '" + format + "'";
   if (rate != "max" && rate != "realtime") {
@@ -318,7 +362,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
              const volatile bool* stop) {
   if (const std::string problem = o.Validate(); !problem.empty()) return Error(problem, 2);
   std::string error;
-  auto source = OpenSource(o, &error);
+  auto source = OpenFrameSource(o, stop, &error);
   if (!source) return Error(error, 2);
   std::shared_ptr<const CameraModel> camera(MakeCamera(source->intrinsics()));
   if (!camera) return Error("invalid camera calibration: " + ValidateIntrinsics(source->intrinsics()), 2);
@@ -343,7 +387,7 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
     comm->Start();
   }
   spdlog::info("{} VO on {} ({} frames, {}x{} {})", comm ? "agent " + std::to_string(o.agent_id) : std::string("standalone"),
-               !o.sim_scenario.empty() ? "sim:" + o.sim_scenario : !o.video.empty() ? o.video : o.dataset, source->size(),
+               InputName(o), source->size(),
                camera->width(), camera->height(), CameraTypeName(camera->type()));
   // --metrics: started after the comm module it reads, stopped before it.
   FlightGauges gauges;
@@ -382,6 +426,11 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
   if (!WriteOutputs(o, vo, flight, &error)) return Error(error, 1);
   nlohmann::json summary = Summary(o, flight, vo.stats(), comm.get());
   summary["footprint"] = Footprint(flight, mapping_cpu_s, comm.get());
+  if (const auto* ros2 = dynamic_cast<const Ros2CameraSource*>(source.get())) {
+    const Ros2CameraSource::Counters c = ros2->counters();
+    summary["ros2_camera"] = {{"delivered", c.delivered}, {"skipped", c.skipped}, {"lost", c.lost},
+                              {"out_of_order", c.out_of_order}, {"stalls", c.stalls}};
+  }
   std::cout << summary.dump() << std::endl;
   return drained ? 0 : 3;
 }

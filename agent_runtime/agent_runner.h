@@ -7,10 +7,12 @@
 // thread is AgentComm's.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "agent_runtime/agent_config.h"
 #include "runtime_common/dds_session.h"
+#include "slam_core/io/frame_source.h"
 #include "slam_core/vo/vo_options.h"
 
 namespace ccm::agent {
@@ -21,6 +23,15 @@ struct RunOptions {
   std::string calibration;       ///< optional calibration YAML override
   std::string sim_scenario;      ///< built-in scenario name or YAML file
   std::string video;             ///< live camera ("0", /dev/video0) or video file; needs calibration
+  /// A ROS 2 camera driver's sensor_msgs/Image topic (ros2_camera_source.h); its CameraInfo
+  /// gives the calibration unless `calibration` is set.
+  std::string ros2_image;
+  std::string ros2_camera_info;  ///< empty: beside the image topic (image_transport's rule)
+  int ros2_domain = -1;          ///< -1: $ROS_DOMAIN_ID, else 0
+  int ros2_queue = 2;            ///< images kept while tracking is busy (older ones are skipped)
+  double ros2_end_after_s = 0;   ///< end the flight after this much silence (0: never)
+  double ros2_info_wait_s = 10;  ///< wait this long for the first CameraInfo
+  std::string qos_file;          ///< profiles file of the camera's participant (empty: the default)
   int sim_agent = 0;             ///< agent index within the scenario
   std::string trajectory_out;    ///< per-frame trajectory (TUM); empty: not written
   std::string keyframes_out;     ///< keyframe trajectory (TUM); empty: not written
@@ -40,6 +51,9 @@ struct RunOptions {
 
   std::string Validate() const;
 };
+
+/// The input named by the options. *stop ends a wait for a live camera.
+std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& options, const volatile bool* stop, std::string* error);
 
 /// Standalone when `comm` is null. Runs to the end of the input (or until *stop becomes
 /// true). Returns the process exit code: 0 on success, 1 on a runtime failure, 2 on bad

@@ -56,6 +56,16 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   app->add_option("--sim", run.sim_scenario, "fly a simulated agent of this scenario (hall3, disjoint2, repeated, FILE)");
   app->add_option("--sim-agent", run.sim_agent, "agent index in the scenario")->capture_default_str();
   app->add_option("--video", run.video, "live camera (0, /dev/video0) or video file; needs --calibration");
+  app->add_option("--ros2-image", run.ros2_image,
+                  "a ROS 2 camera driver's sensor_msgs/Image topic (mono8, bgr8, rgb8, ...; docs/ros2.md)");
+  app->add_option("--ros2-camera-info", run.ros2_camera_info,
+                  "its sensor_msgs/CameraInfo topic (default: camera_info beside the image topic); --calibration wins");
+  app->add_option("--ros2-domain", run.ros2_domain, "the camera's ROS 2 domain (default: $ROS_DOMAIN_ID, else 0)");
+  app->add_option("--ros2-queue", run.ros2_queue, "images kept while tracking is busy; older ones are skipped")
+      ->capture_default_str();
+  app->add_option("--ros2-end-after", run.ros2_end_after_s,
+                  "end the flight after this many seconds without an image (a finished bag; 0: never)")
+      ->capture_default_str();
   app->add_option("--trajectory", run.trajectory_out, "write the per-frame trajectory (TUM format)");
   app->add_option("--keyframes", run.keyframes_out, "write the keyframe trajectory (TUM format)");
   app->add_option("--ground-truth", run.ground_truth_out, "write the input's ground truth of the processed frames (TUM)");
@@ -90,10 +100,16 @@ bool Resolve(const GivenOnCommandLine& g, AgentArgs* a, std::string* error) {
   }
   if (*g.no_sharing) config.map_sharing = false;
   // The robot's camera from its config file, unless the command line names another input.
-  if (run.dataset.empty() && run.sim_scenario.empty() && run.video.empty() && !config.camera.empty()) {
-    run.video = config.camera;
+  if (run.dataset.empty() && run.sim_scenario.empty() && run.video.empty() && run.ros2_image.empty()) {
+    if (!config.camera.empty()) run.video = config.camera;
+    if (!config.ros2_image.empty()) {
+      run.ros2_image = config.ros2_image;
+      if (run.ros2_camera_info.empty()) run.ros2_camera_info = config.ros2_camera_info;
+    }
     if (run.calibration.empty()) run.calibration = config.calibration;
   }
+  if (run.ros2_domain < 0) run.ros2_domain = config.ros2_domain;
+  run.qos_file = config.qos_file;
   // Weak boards: OpenCV would otherwise start one worker per core for the image pyramids,
   // competing with tracking and local mapping (docs/deployment.md, budgets).
   if (config.opencv_threads > 0) cv::setNumThreads(config.opencv_threads);

@@ -45,5 +45,14 @@ inline constexpr const char* kProfileServerStatusReader = "ccm_server_status_rea
 // VOLATILE, KEEP_LAST 10); the reader profile is what a ROS 2 subscriber uses by default.
 inline constexpr const char* kProfileRos2Writer = "ccm_ros2_writer";
 inline constexpr const char* kProfileRos2Reader = "ccm_ros2_reader";
+// ccm_agent --ros2-image: a ROS 2 camera driver's Image / CameraInfo, read BEST_EFFORT (matches
+// ROS 2's sensor-data and default writers) on a participant of its own.
+inline constexpr const char* kProfileRos2CameraParticipant = "ccm_ros2_camera_participant";
+inline constexpr const char* kProfileRos2CameraReader = "ccm_ros2_camera_reader";
+/// ROS 2 topic name ("/camera/image_raw" or "camera/image_raw": nodes here have no namespace)
+/// -> its DDS topic ("rt/camera/image_raw").
+inline std::string Ros2DdsTopic(const std::string& ros_name) {
+  return "rt/" + (!ros_name.empty() && ros_name[0] == '/' ? ros_name.substr(1) : ros_name);
+}
 
 }  // namespace ccm::rt

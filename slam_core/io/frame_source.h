@@ -25,6 +25,11 @@ class FrameSource {
   virtual int64_t size() const = 0;
   /// Empty if the source ended normally; otherwise a human-readable reason.
   virtual const std::string& error() const = 0;
+  /// A live camera: it does not wait for the reader, so frames are neither paced by their
+  /// stamps nor held back while local mapping catches up (a late frame is skipped instead).
+  virtual bool live() const { return false; }
+  /// Frames a live source skipped because the reader was behind (0 for recorded input).
+  virtual int64_t frames_skipped() const { return 0; }
 };
 
 }  // namespace ccm

@@ -25,6 +25,7 @@ class VideoSource : public FrameSource {
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   int64_t size() const override { return size_; }
   const std::string& error() const override { return error_; }
+  bool live() const override { return !is_file_; }
 
  private:
   VideoSource() = default;

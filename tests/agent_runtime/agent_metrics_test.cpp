@@ -37,12 +37,14 @@ TEST(AgentMetrics, TextCarriesTheGaugesAndTheLinkCounters) {
   FlightGauges g;
   g.frames = 120;
   g.tracked = 117;
+  g.frames_skipped = 4;
   g.keyframes_created = 21;
   g.segments = 2;
   g.state = 2;  // lost
   const std::string standalone = AgentMetricsText(7, g, nullptr);
   EXPECT_NE(standalone.find("ccm_agent_frames_total{agent=\"7\"} 120\n"), std::string::npos) << standalone;
   EXPECT_NE(standalone.find("ccm_agent_frames_tracked_total{agent=\"7\"} 117\n"), std::string::npos);
+  EXPECT_NE(standalone.find("ccm_agent_frames_skipped_total{agent=\"7\"} 4\n"), std::string::npos);
   EXPECT_NE(standalone.find("ccm_agent_tracking_state{agent=\"7\",state=\"lost\"} 1\n"), std::string::npos);
   EXPECT_NE(standalone.find("ccm_agent_tracking_state{agent=\"7\",state=\"tracking\"} 0\n"), std::string::npos);
   EXPECT_NE(standalone.find("ccm_agent_segments{agent=\"7\"} 2\n"), std::string::npos);

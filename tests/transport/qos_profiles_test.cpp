@@ -51,7 +51,8 @@ TEST(QosProfiles, EveryShippedFileCreatesEveryProfile) {
                                 rt::kProfileStatusReader, rt::kProfileServerWriter, rt::kProfileServerAckWriter,
                                 rt::kProfileServerReader,
                                 rt::kProfileServerStatusWriter, rt::kProfileServerStatusReader,
-                                rt::kProfileRos2Writer, rt::kProfileRos2Reader}) {
+                                rt::kProfileRos2Writer, rt::kProfileRos2Reader, rt::kProfileRos2CameraReader,
+                                rt::kProfileRos2CameraParticipant}) {
       EXPECT_NE(results[0].output.find(std::string(profile) + "\n"), std::string::npos)
           << file << " lacks profile " << profile << ":\n" << results[0].output;
     }
