@@ -65,7 +65,7 @@ std::unique_ptr<Ros2CameraSource> Ros2CameraSource::Create(const Ros2CameraOptio
   rt::SessionOptions session;
   session.domain_id = options.domain_id;
   session.qos_file = options.qos_file;
-  session.participant_profile = rt::kProfileRos2CameraParticipant;
+  session.participant_profile = rt::kProfileRos2Participant;
   session.participant_name = "ccm_camera_input";
   s->session_ = rt::DdsSession::Create(session, error);
   if (!s->session_) return nullptr;

@@ -2,7 +2,7 @@
 // plain DDS with ROS 2's names (topic "rt/<name>", types sensor_msgs::msg::dds_::Image_ and
 // CameraInfo_), so the agent needs no ROS. Its own participant on the ROS 2 domain (the
 // camera's ROS_DOMAIN_ID, which need not be the team's), no DDS-Security (a ROS 2 driver has
-// none of the team's certificates), QoS profiles ccm_ros2_camera_participant / _reader.
+// none of the team's certificates), QoS profiles ccm_ros2_participant / _reader.
 //
 // The DDS listener only enqueues the message (TypedReader); conversion happens in Next(), on
 // the tracking thread that owns this source. A live camera does not wait: the queue keeps the

@@ -47,7 +47,7 @@ inline constexpr const char* kProfileRos2Writer = "ccm_ros2_writer";
 inline constexpr const char* kProfileRos2Reader = "ccm_ros2_reader";
 // ccm_agent --ros2-image: a ROS 2 camera driver's Image / CameraInfo, read BEST_EFFORT (matches
 // ROS 2's sensor-data and default writers) on a participant of its own.
-inline constexpr const char* kProfileRos2CameraParticipant = "ccm_ros2_camera_participant";
+inline constexpr const char* kProfileRos2Participant = "ccm_ros2_participant";
 inline constexpr const char* kProfileRos2CameraReader = "ccm_ros2_camera_reader";
 /// ROS 2 topic name ("/camera/image_raw" or "camera/image_raw": nodes here have no namespace)
 /// -> its DDS topic ("rt/camera/image_raw").

@@ -233,9 +233,10 @@ bool StartServices(const ServerArgs& a, Services* s, std::string* error) {
   s->status = server::StatusPublisher::Create(s->comm->session(), error);
   if (!s->status) return false;
   if (a.config.ros2_outputs) {
-    s->ros2 = server::Ros2Outputs::Create(s->comm->session(), a.config.Ros2Options(), error);
+    s->ros2 = server::Ros2Outputs::CreateWithOwnParticipant(s->comm->session().options(), a.config.Ros2Options(), error);
     if (!s->ros2) return false;
-    spdlog::info("ROS 2 outputs on: rt/tf, rt/ccm/map_points, rt/ccm/agent_<id>/path and /pose (docs/ros2.md)");
+    spdlog::info("ROS 2 outputs on domain {}: rt/tf, rt/ccm/map_points, rt/ccm/agent_<id>/path and /pose (docs/ros2.md)",
+                 s->ros2->domain_id());
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);

@@ -104,6 +104,7 @@ std::string Ros2OutputOptions::Validate() const {
   if (!(period_s >= 0.05)) return "ros2_period_s must be >= 0.05";
   if (!(cloud_period_s >= period_s)) return "ros2_cloud_period_s must be >= ros2_period_s";
   if (max_cloud_points < 1 || max_cloud_points > 1000000) return "ros2_max_cloud_points must be in 1..1000000";
+  if (domain_id < -1 || domain_id > 232) return "ros2_domain must be in 0..232 (-1: the server's domain)";
   return "";
 }
 
@@ -155,6 +156,28 @@ std::unique_ptr<Ros2Outputs> Ros2Outputs::Create(rt::DdsSession& session, const 
       session, rt::kTopicRos2MapPoints, rt::kProfileRos2Writer, error);
   if (!r->cloud_) return nullptr;
   return r;
+}
+
+std::unique_ptr<Ros2Outputs> Ros2Outputs::CreateWithOwnParticipant(const rt::SessionOptions& team,
+                                                                   const Ros2OutputOptions& options,
+                                                                   std::string* error) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    *error = problem;
+    return nullptr;
+  }
+  rt::SessionOptions ros_side;
+  ros_side.domain_id = options.domain_id >= 0 ? options.domain_id : team.domain_id;
+  ros_side.qos_file = team.qos_file;
+  ros_side.participant_profile = rt::kProfileRos2Participant;
+  ros_side.participant_name = "ccm_server_ros2";
+  auto session = rt::DdsSession::Create(ros_side, error);
+  if (!session) {
+    *error = "ROS 2 outputs: " + *error;
+    return nullptr;
+  }
+  auto outputs = Create(*session, options, error);
+  if (outputs) outputs->own_session_ = std::move(session);
+  return outputs;
 }
 
 bool Ros2Outputs::PublishDue(const ServerBackend& backend, double now_s, std::string* error) {

@@ -13,6 +13,9 @@
 // they did. Stamps are the keyframes' (camera) stamps; the cloud's is the newest keyframe's.
 // Poses are camera poses in the map (camera frame: x right, y down, z forward, as the agent's
 // camera; ROS' body convention would need the camera's mounting, which the server does not know).
+// The daemon publishes on a participant of its own (CreateWithOwnParticipant: profile
+// ccm_ros2_participant, the ROS 2 side's domain, no DDS-Security), so a secure ground station
+// can still show its map to ROS 2 tools on an open domain without opening the team's.
 // Called from one thread (the daemon's main loop); it owns no thread.
 #pragma once
 
@@ -32,6 +35,7 @@ struct Ros2OutputOptions {
   double period_s = 1.0;         ///< paths, poses and tf
   double cloud_period_s = 5.0;   ///< the point cloud (it is the big one)
   size_t max_cloud_points = 50000;
+  int domain_id = -1;            ///< the ROS 2 side's domain (CreateWithOwnParticipant); -1: the team's
   std::string Validate() const;
 };
 
@@ -54,8 +58,14 @@ Ros2Frame BuildRos2Frame(const MapStackSnapshot& stack, bool with_cloud, size_t 
 
 class Ros2Outputs {
  public:
+  /// On `session` (which must outlive the outputs).
   static std::unique_ptr<Ros2Outputs> Create(rt::DdsSession& session, const Ros2OutputOptions& options,
                                              std::string* error);
+  /// On a participant of their own: `team`'s QoS file, options.domain_id (else team's domain),
+  /// profile ccm_ros2_participant, no DDS-Security whatever `team` uses.
+  static std::unique_ptr<Ros2Outputs> CreateWithOwnParticipant(const rt::SessionOptions& team,
+                                                               const Ros2OutputOptions& options, std::string* error);
+  int domain_id() const { return session_.options().domain_id; }
   /// Publishes what is due at `now_s` (any monotonic seconds; the back-end's snapshot is taken
   /// only then). False and *error if a writer could not be created.
   bool PublishDue(const ServerBackend& backend, double now_s, std::string* error);
@@ -67,6 +77,7 @@ class Ros2Outputs {
     std::unique_ptr<rt::TypedWriter<nav_msgs::msg::dds_::Path_PubSubType>> path;
     std::unique_ptr<rt::TypedWriter<geometry_msgs::msg::dds_::PoseStamped_PubSubType>> pose;
   };
+  std::unique_ptr<rt::DdsSession> own_session_;  // CreateWithOwnParticipant; declared first: destroyed last
   rt::DdsSession& session_;
   const Ros2OutputOptions options_;
   std::unique_ptr<rt::TypedWriter<tf2_msgs::msg::dds_::TFMessage_PubSubType>> tf_;

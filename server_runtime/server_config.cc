@@ -29,6 +29,7 @@ Ros2OutputOptions ServerConfig::Ros2Options() const {
   o.period_s = ros2_period_s;
   o.cloud_period_s = ros2_cloud_period_s;
   o.max_cloud_points = static_cast<size_t>(std::max(0, ros2_max_cloud_points));
+  o.domain_id = ros2_domain;
   return o;
 }
 
@@ -52,6 +53,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("ros2_period_s", &config->ros2_period_s);
   r.Get("ros2_cloud_period_s", &config->ros2_cloud_period_s);
   r.Get("ros2_max_cloud_points", &config->ros2_max_cloud_points);
+  r.Get("ros2_domain", &config->ros2_domain);
   r.Get("share_own_keyframes_after_s", &config->share_own_keyframes_after_s);
   r.Get("global_ba_max_free_keyframes", &config->global_ba_max_free_keyframes);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);

@@ -28,6 +28,7 @@ struct ServerConfig {
   double ros2_period_s = 1.0;        // paths, poses, tf
   double ros2_cloud_period_s = 5.0;  // the point cloud
   int ros2_max_cloud_points = 50000;
+  int ros2_domain = -1;              // the ROS 2 tools' domain; -1: the server's domain_id
   double share_own_keyframes_after_s = 0.0;  // > 0: also an agent's own keyframes this much older than its reference (experimental)
   int global_ba_max_free_keyframes = ServerOptions{}.optimization.global_ba_max_free_keyframes;  // a loop or fusion in a bigger map: BA of its region (0: whole map)
   double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)

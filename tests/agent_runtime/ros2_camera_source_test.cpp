@@ -17,12 +17,17 @@ namespace {
 using std::chrono::milliseconds;
 constexpr int kCameraTestDomain = 195;
 
+// Each test on a topic of its own: ctest runs them as parallel processes on one domain.
+std::string TestImageTopic() {
+  return std::string("/cam_") + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "/image_raw";
+}
+
 struct FakeDriver {
   std::unique_ptr<rt::DdsSession> session;
   std::unique_ptr<rt::TypedWriter<sensor_msgs::msg::dds_::Image_PubSubType>> images;
   std::unique_ptr<rt::TypedWriter<sensor_msgs::msg::dds_::CameraInfo_PubSubType>> infos;
 
-  explicit FakeDriver(const std::string& image_topic = "/cam/image_raw") {
+  explicit FakeDriver(const std::string& image_topic = TestImageTopic()) {
     rt::SessionOptions o;
     o.domain_id = kCameraTestDomain;
     o.qos_file = std::string(CCM_SOURCE_DIR) + "/qos_profiles/default.xml";
@@ -61,7 +66,7 @@ struct FakeDriver {
 
 Ros2CameraOptions Options() {
   Ros2CameraOptions o;
-  o.image_topic = "/cam/image_raw";
+  o.image_topic = TestImageTopic();
   o.domain_id = kCameraTestDomain;
   o.qos_file = std::string(CCM_SOURCE_DIR) + "/qos_profiles/default.xml";
   o.info_wait_s = 20.0;
@@ -164,7 +169,9 @@ TEST(Ros2CameraSource, WithoutACameraInfoTheErrorSaysWhatToCheck) {
   o.info_wait_s = 1.0;
   std::string error;
   EXPECT_FALSE(Ros2CameraSource::Create(o, &error));
-  EXPECT_NE(error.find("no sensor_msgs/CameraInfo on DDS topic rt/cam/camera_info"), std::string::npos) << error;
+  EXPECT_NE(error.find("no sensor_msgs/CameraInfo on DDS topic rt" + CameraInfoTopicFor(TestImageTopic())),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("--calibration"), std::string::npos) << error;
   EXPECT_NE(error.find("--ros2-domain"), std::string::npos) << error;
   // A calibration given instead: no wait, and an image of another size is refused.
@@ -191,7 +198,8 @@ TEST(Ros2CameraSource, ABadEncodingEndsTheFlightWithTheReasonAndStopEndsAWait) {
   ASSERT_TRUE(source) << error;
   driver.Image(1000, 5, "yuv422");
   EXPECT_FALSE(source->Next());
-  EXPECT_NE(source->error().find("rt/cam/image_raw: image encoding 'yuv422' is not supported"), std::string::npos)
+  EXPECT_NE(source->error().find("rt" + TestImageTopic() + ": image encoding 'yuv422' is not supported"),
+            std::string::npos)
       << source->error();
   volatile bool stop = false;
   Ros2CameraOptions o = Options();

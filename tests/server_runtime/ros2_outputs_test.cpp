@@ -84,8 +84,6 @@ TEST(Ros2Outputs, PlainDdsReadersWithRos2NamesReceiveThem) {
   so.domain_id = 199;
   so.qos_file = std::string(CCM_SOURCE_DIR) + "/qos_profiles/default.xml";
   std::string error;
-  auto server = rt::DdsSession::Create(so, &error);
-  ASSERT_TRUE(server) << error;
   so.participant_name = "ros2_tool";
   auto tool = rt::DdsSession::Create(so, &error);
   ASSERT_TRUE(tool) << error;
@@ -98,8 +96,15 @@ TEST(Ros2Outputs, PlainDdsReadersWithRos2NamesReceiveThem) {
   ASSERT_TRUE(path && tf && cloud) << error;
   EXPECT_EQ(std::string(nav_msgs::msg::dds_::Path_PubSubType().getName()), "nav_msgs::msg::dds_::Path_");
   EXPECT_EQ(std::string(tf2_msgs::msg::dds_::TFMessage_PubSubType().getName()), "tf2_msgs::msg::dds_::TFMessage_");
-  auto outputs = Ros2Outputs::Create(*server, Ros2OutputOptions{}, &error);
+  // As the daemon does: a participant of their own, on the ROS 2 side's domain (199) rather
+  // than the team's (here 0, never joined).
+  rt::SessionOptions team = so;
+  team.domain_id = 0;
+  Ros2OutputOptions options;
+  options.domain_id = 199;
+  auto outputs = Ros2Outputs::CreateWithOwnParticipant(team, options, &error);
   ASSERT_TRUE(outputs) << error;
+  EXPECT_EQ(outputs->domain_id(), 199);
   ASSERT_TRUE(outputs->PublishDue(t.b.backend(), 0.0, &error)) << error;  // creates the agents' writers
   ASSERT_TRUE(path->WaitForMatch(1, milliseconds(5000)));
   ASSERT_TRUE(tf->WaitForMatch(1, milliseconds(5000)));
@@ -136,6 +141,9 @@ TEST(Ros2Outputs, PlainDdsReadersWithRos2NamesReceiveThem) {
 
 TEST(Ros2Outputs, BadOptionsAreRefused) {
   Ros2OutputOptions o;
+  o.domain_id = 233;
+  EXPECT_NE(o.Validate().find("ros2_domain"), std::string::npos);
+  o.domain_id = -1;
   o.period_s = 0.0;
   EXPECT_NE(o.Validate().find("ros2_period_s"), std::string::npos);
   o = Ros2OutputOptions{};

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -25,7 +26,10 @@ TEST(Ros2, ALiveServersPathTfAndCloudReachARos2ReaderAndMatchTheGroundTruth) {
   const std::string qos = std::string(CCM_QOS_DIR) + "/wifi.xml";
   ChildProcess server({CCM_SERVER, "--qos", qos, "--domain", kRos2Domain, "--ros2", "--progress", "1000"},
                       dir + "/server.log");
-  ChildProcess echo({CCM_ROS2_ECHO, "--qos", qos, "--domain", kRos2Domain, "--agent", "1", "--seconds", "600",
+  // The reader as a ROS 2 node is set up: Fast DDS' builtin transports (default.xml), not the
+  // team's 1400 B Wi-Fi datagrams; the server's outputs use such a participant too.
+  ChildProcess echo({CCM_ROS2_ECHO, "--qos", std::string(CCM_QOS_DIR) + "/default.xml", "--domain", kRos2Domain,
+                     "--agent", "1", "--seconds", "600",
                      "--path-out", dir + "/path.tum"},
                     dir + "/echo.log");
   ChildProcess agent({CCM_AGENT, "--agent-id", "1", "--sim", "hall3", "--sim-agent", "0", "--max-frames", "500",
@@ -63,6 +67,41 @@ TEST(Ros2, ALiveServersPathTfAndCloudReachARos2ReaderAndMatchTheGroundTruth) {
   // stamp or frame would be metres off.
   EXPECT_LT(ate, 0.1) << eval[0].output;
   std::printf("ros2 path: %d poses, ATE %.4f m against the ground truth\n", j["poses"].get<int>(), ate);
+}
+
+// A secure ground station (DDS-Security, docs/security.md) still shows its map to ROS 2 tools:
+// the outputs come from a participant of their own on the open domain, while the team's
+// participant admits only its PKI. The agent works as usual; a plain reader gets the path.
+TEST(Ros2, ASecureServersOutputsReachAnOpenRos2Reader) {
+  const std::string dir = ::testing::TempDir() + "/ros2_secure";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string pki = std::string(CCM_MAKE_PKI) + " " + dir + "/pki --agents 1 > " + dir + "/pki.log 2>&1";
+  ASSERT_EQ(std::system(pki.c_str()), 0) << pki;
+  const char* domain = "198";
+  ChildProcess server({CCM_SERVER, "--qos", CCM_WIFI_SECURE_QOS, "--domain", domain, "--security-dir",
+                       dir + "/pki/server", "--ros2", "--progress", "1000"},
+                      dir + "/server.log");
+  ChildProcess echo({CCM_ROS2_ECHO, "--qos", std::string(CCM_QOS_DIR) + "/default.xml", "--domain", domain, "--agent",
+                     "1", "--seconds", "600"},
+                    dir + "/echo.log");
+  ChildProcess agent({CCM_AGENT, "--agent-id", "1", "--sim", "hall3", "--sim-agent", "0", "--max-frames", "300",
+                      "--rate", "realtime", "--drain", "60", "--qos", CCM_WIFI_SECURE_QOS, "--domain", domain,
+                      "--security-dir", dir + "/pki/agent_1", "--log-level", "warn"},
+                     dir + "/agent.log");
+  ASSERT_TRUE(server.started() && echo.started() && agent.started());
+  ASSERT_EQ(agent.Wait(std::chrono::seconds(300)), 0) << agent.Output() << server.Output();
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  ASSERT_TRUE(echo.Signal(SIGTERM));
+  ASSERT_EQ(echo.Wait(std::chrono::seconds(30)), 0) << echo.Output();
+  ASSERT_TRUE(server.Signal(SIGTERM));
+  const std::string out = echo.Output();
+  const auto j = nlohmann::json::parse(out.substr(out.rfind("\n{") + 1), nullptr, false);
+  ASSERT_TRUE(j.is_object()) << out << "\n" << server.Output();
+  EXPECT_GE(j["paths"].get<int>(), 5) << j.dump() << "\n" << server.Output();
+  EXPECT_EQ(j.value("frame_id", ""), "map") << j.dump();
+  EXPECT_GE(j.value("poses", 0), 10) << j.dump();
+  EXPECT_EQ(j["tf_frames"], nlohmann::json::array({"map>agent_1"})) << j.dump();
 }
 
 }  // namespace

@@ -52,7 +52,7 @@ TEST(QosProfiles, EveryShippedFileCreatesEveryProfile) {
                                 rt::kProfileServerReader,
                                 rt::kProfileServerStatusWriter, rt::kProfileServerStatusReader,
                                 rt::kProfileRos2Writer, rt::kProfileRos2Reader, rt::kProfileRos2CameraReader,
-                                rt::kProfileRos2CameraParticipant}) {
+                                rt::kProfileRos2Participant}) {
       EXPECT_NE(results[0].output.find(std::string(profile) + "\n"), std::string::npos)
           << file << " lacks profile " << profile << ":\n" << results[0].output;
     }
