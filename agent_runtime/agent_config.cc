@@ -49,6 +49,7 @@ namespace {
 bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions* vo, std::string* error) {
   rt::YamlReader r(node, context);
   r.Get("features", &vo->orb.num_features);
+  r.Get("pyramid_levels", &vo->orb.num_levels);
   r.Get("init_features", &vo->init_num_features);
   r.Get("fast_threshold", &vo->orb.ini_fast_threshold);
   r.Get("fast_min_threshold", &vo->orb.min_fast_threshold);
@@ -116,6 +117,7 @@ bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* 
   r.Get("ros2_camera_info", &config->ros2_camera_info);
   r.Get("ros2_domain", &config->ros2_domain);
   r.Get("opencv_threads", &config->opencv_threads);
+  r.Get("skip_late_frames", &config->skip_late_frames);
   if (const YAML::Node vo_node = r.Child("vo"); vo_node && r.ok()) {
     if (!vo_node.IsMap()) {
       r.Fail("vo", "must be a mapping of VO options");

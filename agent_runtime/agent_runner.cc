@@ -121,14 +121,25 @@ class Pacer {
       start_ = Clock::now();
       return;
     }
-    const double media_s = (stamp_ns - first_ns_) * 1e-9 / speed_;
-    std::this_thread::sleep_until(start_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(media_s)));
+    std::this_thread::sleep_until(Due(stamp_ns));
+  }
+  /// For --skip-late-frames: true when the frame after this one is already due, so a camera
+  /// that holds only its newest frame would have replaced this one. Call for every frame
+  /// read, before Wait; the first frame is never late, and unpaced input never is.
+  bool Late(int64_t stamp_ns) {
+    const int64_t period_ns = last_ns_ >= 0 ? stamp_ns - last_ns_ : 0;
+    last_ns_ = stamp_ns;
+    return speed_ > 0 && started_ && Clock::now() >= Due(stamp_ns + period_ns);
   }
 
  private:
+  Clock::time_point Due(int64_t stamp_ns) const {
+    const double media_s = (stamp_ns - first_ns_) * 1e-9 / speed_;
+    return start_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(media_s));
+  }
   double speed_;
   bool started_ = false;
-  int64_t first_ns_ = 0;
+  int64_t first_ns_ = 0, last_ns_ = -1;
   Clock::time_point start_;
 };
 
@@ -166,7 +177,8 @@ bool LoadAgentVocabulary(const RunOptions& o, std::shared_ptr<const Vocabulary>*
 // What the tracking loop leaves behind.
 struct Flight {
   int64_t frames = 0, tracked = 0;
-  int64_t skipped = 0;  ///< frames a live source skipped while tracking was busy
+  int64_t skipped = 0;       ///< frames skipped while tracking was busy (a live source's + skipped_late)
+  int64_t skipped_late = 0;  ///< --skip-late-frames: paced frames whose successor was already due
   double tracking_cpu_s = 0.0;  ///< the tracking thread inside TrackFrame
   double input_cpu_s = 0.0;     ///< the same thread reading / decoding / rendering frames and pacing
   std::vector<KeyframePose> ground_truth;  ///< per frame, where the source has it and it is written
@@ -200,9 +212,13 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
   auto last_progress = f.start;
   TrackingResult last;
   bool road_hint_given = false;
-  while (!*stop && (o.max_frames < 0 || f.frames < o.max_frames)) {
+  while (!*stop && (o.max_frames < 0 || f.frames + f.skipped_late < o.max_frames)) {  // frames read
     auto frame = source->Next();
     if (!frame) break;
+    if (o.skip_late_frames && pacer.Late(frame->stamp_ns)) {
+      gauges->frames_skipped = source->frames_skipped() + ++f.skipped_late;
+      continue;
+    }
     pacer.Wait(frame->stamp_ns);
     // Kept only when it is written: per frame it grew the agent's memory by 7 MB per hour.
     if (frame->world_from_cam_gt && !o.ground_truth_out.empty()) {
@@ -219,7 +235,7 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
     f.tracked += last.world_from_cam.has_value();
     gauges->frames = f.frames;
     gauges->tracked = f.tracked;
-    gauges->frames_skipped = source->frames_skipped();
+    gauges->frames_skipped = source->frames_skipped() + f.skipped_late;
     gauges->state = static_cast<int>(last.state);
     gauges->keyframes_created += last.new_keyframe ? 1 : 0;
     gauges->segments += last.new_segment ? 1 : 0;
@@ -241,9 +257,9 @@ Flight Fly(const RunOptions& o, FrameSource* source, AgentVo* vo, AgentComm* com
     }
   }
   f.input_cpu_s = ThreadCpuSeconds() - cpu_start - f.tracking_cpu_s;
-  f.skipped = source->frames_skipped();
+  f.skipped = source->frames_skipped() + f.skipped_late;
   if (f.skipped > 0) {
-    spdlog::warn("the camera delivered faster than tracking took frames: {} frames skipped ({:.1f}% of {})", f.skipped,
+    spdlog::warn("frames came faster than tracking took them: {} frames skipped ({:.1f}% of {})", f.skipped,
                  100.0 * f.skipped / static_cast<double>(f.skipped + f.frames), f.skipped + f.frames);
   }
   return f;

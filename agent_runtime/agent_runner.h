@@ -37,6 +37,9 @@ struct RunOptions {
   std::string keyframes_out;     ///< keyframe trajectory (TUM); empty: not written
   std::string ground_truth_out;  ///< ground truth of the processed frames (TUM), if the source has it
   std::string rate = "max";      ///< "max", "realtime" or a speed factor such as "0.5"
+  /// Paced input (rate not "max") behaves as a camera that does not wait: a frame whose
+  /// successor is already due is skipped and counted (embedded boards, issue 29).
+  bool skip_late_frames = false;
   int64_t max_frames = -1;       ///< stop after this many frames (-1: all)
   int agent_id = 1;
   bool no_acks = false;          ///< standalone: behave as if the server never acknowledges

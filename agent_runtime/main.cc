@@ -38,7 +38,7 @@ struct AgentArgs {
 // Options given on the command line win over the config file's keys.
 struct GivenOnCommandLine {
   rt::DdsOptionsGiven dds;
-  CLI::Option *id, *vocab, *no_sharing;
+  CLI::Option *id, *vocab, *no_sharing, *skip_late;
 };
 
 GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
@@ -70,6 +70,8 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   app->add_option("--keyframes", run.keyframes_out, "write the keyframe trajectory (TUM format)");
   app->add_option("--ground-truth", run.ground_truth_out, "write the input's ground truth of the processed frames (TUM)");
   app->add_option("--rate", run.rate, "playback: max, realtime or a speed factor")->capture_default_str();
+  g.skip_late = app->add_flag("--skip-late-frames", run.skip_late_frames,
+                              "paced input (--rate realtime) acts as a camera: a frame whose successor is due is skipped");
   app->add_option("--max-frames", run.max_frames, "stop after N frames (-1: all)")->capture_default_str();
   g.vocab = app->add_option("--vocab", c.vocabulary,
                             "bag-of-words vocabulary for relocalization (default: built-in; none: brute force)");
@@ -109,6 +111,7 @@ bool Resolve(const GivenOnCommandLine& g, AgentArgs* a, std::string* error) {
     if (run.calibration.empty()) run.calibration = config.calibration;
   }
   if (run.ros2_domain < 0) run.ros2_domain = config.ros2_domain;
+  if (!*g.skip_late) run.skip_late_frames = config.skip_late_frames;
   run.qos_file = config.qos_file;
   // Weak boards: OpenCV would otherwise start one worker per core for the image pyramids,
   // competing with tracking and local mapping (docs/deployment.md, budgets).

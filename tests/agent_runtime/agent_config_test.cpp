@@ -128,6 +128,20 @@ TEST(AgentConfig, RoadProfileCountsDistantPointsWithMoreFeatures) {
   EXPECT_EQ(c.vo.init_min_homography_ratio, AgentConfig().vo.init_min_homography_ratio);
 }
 
+// The embedded profile (docs/deployment.md "Embedded profile"): less work per frame and per
+// keyframe than the defaults, and late frames skipped.
+TEST(AgentConfig, EmbeddedProfileDoesLessWorkAndSkipsLateFrames) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(std::string(CCM_SOURCE_DIR) + "/deploy/config/agent-embedded.yaml", &c, &error)) << error;
+  const AgentConfig d;
+  EXPECT_LT(c.vo.orb.num_features, d.vo.orb.num_features);
+  EXPECT_LT(c.vo.local_ba_window, d.vo.local_ba_window);
+  EXPECT_EQ(c.opencv_threads, 1);
+  EXPECT_TRUE(c.skip_late_frames);
+  EXPECT_FALSE(d.skip_late_frames);
+}
+
 // ORB-SLAM's keyframe rule (a keyframe whenever fewer than 90 % of the reference's points
 // are tracked, local BA over 10) is three keys away from the defaults (docs/configuration.md).
 TEST(AgentConfig, OrbSlamKeyframeRuleCanBeRestored) {
