@@ -1,6 +1,7 @@
 // The binaries' command lines: --help lists the options, bad configs fail clearly with a
 // non-zero exit code.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <fstream>
@@ -103,6 +104,41 @@ TEST(Cli, FleetRefusesBadInputClearly) {
   r = RunCli({CCM_FLEET, "--recording", garbage, "--offline", "--score", garbage});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("exclude each other"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace ccm
+
+namespace ccm {
+namespace {
+
+nlohmann::json AgentSummaryLine(const std::string& output) {
+  const size_t at = output.rfind("\n{");
+  return nlohmann::json::parse(at == std::string::npos ? output : output.substr(at + 1), nullptr, false);
+}
+
+// --skip-late-frames (the embedded profile): paced input acts as a camera that does not wait.
+// At 20x hall3's rate a frame period is 2.5 ms, less than rendering one, so most frames are
+// late: they are skipped and counted, and --max-frames still counts the frames read.
+TEST(Cli, LateFramesAreSkippedAndCountedWhenAsked) {
+  const std::vector<std::string> flight = {CCM_AGENT, "--standalone", "--sim", "hall3", "--max-frames", "60",
+                                           "--rate", "20", "--log-level", "warn"};
+  const auto paced = RunCli(flight);
+  ASSERT_EQ(paced.exit_code, 0) << paced.output;
+  const auto waited = AgentSummaryLine(paced.output);
+  ASSERT_TRUE(waited.is_object()) << paced.output;
+  EXPECT_EQ(waited["frames"].get<int>(), 60);
+  EXPECT_EQ(waited["frames_skipped"].get<int>(), 0);
+  std::vector<std::string> skipping = flight;
+  skipping.push_back("--skip-late-frames");
+  const auto late = RunCli(skipping);
+  ASSERT_EQ(late.exit_code, 0) << late.output;
+  const auto skipped = AgentSummaryLine(late.output);
+  ASSERT_TRUE(skipped.is_object()) << late.output;
+  EXPECT_EQ(skipped["frames"].get<int>() + skipped["frames_skipped"].get<int>(), 60) << skipped.dump();
+  EXPECT_GE(skipped["frames_skipped"].get<int>(), 20) << skipped.dump();
+  EXPECT_GE(skipped["frames"].get<int>(), 1);
+  EXPECT_NE(late.output.find("frames skipped"), std::string::npos) << late.output;
 }
 
 }  // namespace
