@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -18,6 +19,7 @@
 #include "agent_runtime/agent_comm.h"
 #include "agent_runtime/agent_metrics.h"
 #include "agent_runtime/cpu_usage.h"
+#include "agent_runtime/live_camera_source.h"
 #include "agent_runtime/ros2_camera_source.h"
 #include "runtime_common/process_memory.h"
 #include "slam_core/common/install_paths.h"
@@ -46,7 +48,7 @@ std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile
     r.domain_id = o.ros2_domain >= 0 ? o.ros2_domain : DefaultRos2Domain();
     r.qos_file = o.qos_file;
     r.queue = static_cast<size_t>(o.ros2_queue);
-    r.end_after_s = o.ros2_end_after_s;
+    r.end_after_s = o.end_after_s;
     r.info_wait_s = o.ros2_info_wait_s;
     r.stop = stop;
     if (!o.calibration.empty()) {
@@ -82,6 +84,19 @@ std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile
     if (!status.ok()) {
       *error = status.message();
       return nullptr;
+    }
+    // A camera or a GStreamer pipeline: live (its own capture thread, skips, stalls, reopen).
+    if (!std::filesystem::is_regular_file(o.video)) {
+      if (!IsGStreamerPipeline(o.video) && o.video.find_first_not_of("0123456789") != std::string::npos &&
+          !std::filesystem::exists(o.video)) {
+        *error = o.video + ": cannot open camera or video (no such file or device)";
+        return nullptr;
+      }
+      LiveCameraOptions live;
+      live.name = o.video;
+      live.end_after_s = o.end_after_s;
+      live.stop = stop;
+      return LiveCameraSource::Create(MakeOpenCvGrabber(o.video), intrinsics, live, error);
     }
     auto video = VideoSource::Open(o.video, intrinsics, &status);
     if (!video) *error = status.message();
@@ -356,7 +371,7 @@ std::string RunOptions::Validate() const {
   }
   if (ros2_image.empty() && !ros2_camera_info.empty()) return "--ros2-camera-info needs --ros2-image";
   if (ros2_queue < 1 || ros2_queue > 1000) return "--ros2-queue must be in 1..1000";
-  if (!(ros2_end_after_s >= 0)) return "--ros2-end-after must be >= 0 (0: wait for ever)";
+  if (!(end_after_s >= 0)) return "--end-after must be >= 0 (0: wait for ever)";
   if (ros2_domain < -1 || ros2_domain > 232) return "--ros2-domain must be in 0..232";
   if (!video.empty() && calibration.empty()) return "--video needs --calibration FILE.yaml";
   if (!ParseDatasetFormat(format)) return "--format must be auto, euroc, tum or kitti, got '" + format + "'";
@@ -446,6 +461,11 @@ int RunAgent(const RunOptions& o, const AgentConfig* comm_config, const rt::Sess
     const Ros2CameraSource::Counters c = ros2->counters();
     summary["ros2_camera"] = {{"delivered", c.delivered}, {"skipped", c.skipped}, {"lost", c.lost},
                               {"out_of_order", c.out_of_order}, {"stalls", c.stalls}};
+  }
+  if (const auto* camera = dynamic_cast<const LiveCameraSource*>(source.get())) {
+    const LiveCameraSource::Counters c = camera->counters();
+    summary["camera"] = {{"delivered", c.delivered}, {"skipped", c.skipped}, {"stalls", c.stalls},
+                         {"disappearances", c.disappearances}, {"reopened", c.reopened}};
   }
   std::cout << summary.dump() << std::endl;
   return drained ? 0 : 3;

@@ -29,7 +29,7 @@ struct RunOptions {
   std::string ros2_camera_info;  ///< empty: beside the image topic (image_transport's rule)
   int ros2_domain = -1;          ///< -1: $ROS_DOMAIN_ID, else 0
   int ros2_queue = 2;            ///< images kept while tracking is busy (older ones are skipped)
-  double ros2_end_after_s = 0;   ///< end the flight after this much silence (0: never)
+  double end_after_s = 0;        ///< live input (camera, ROS 2): end the flight after this much silence (0: never)
   double ros2_info_wait_s = 10;  ///< wait this long for the first CameraInfo
   std::string qos_file;          ///< profiles file of the camera's participant (empty: the default)
   int sim_agent = 0;             ///< agent index within the scenario

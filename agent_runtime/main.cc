@@ -55,7 +55,8 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   app->add_option("--calibration", run.calibration, "camera calibration YAML overriding the dataset's");
   app->add_option("--sim", run.sim_scenario, "fly a simulated agent of this scenario (hall3, disjoint2, repeated, FILE)");
   app->add_option("--sim-agent", run.sim_agent, "agent index in the scenario")->capture_default_str();
-  app->add_option("--video", run.video, "live camera (0, /dev/video0) or video file; needs --calibration");
+  app->add_option("--video", run.video,
+                  "live camera (0, /dev/video0), GStreamer pipeline (\"... ! appsink\") or video file; needs --calibration");
   app->add_option("--ros2-image", run.ros2_image,
                   "a ROS 2 camera driver's sensor_msgs/Image topic (mono8, bgr8, rgb8, ...; docs/ros2.md)");
   app->add_option("--ros2-camera-info", run.ros2_camera_info,
@@ -63,8 +64,9 @@ GivenOnCommandLine AddOptions(CLI::App* app, AgentArgs* a) {
   app->add_option("--ros2-domain", run.ros2_domain, "the camera's ROS 2 domain (default: $ROS_DOMAIN_ID, else 0)");
   app->add_option("--ros2-queue", run.ros2_queue, "images kept while tracking is busy; older ones are skipped")
       ->capture_default_str();
-  app->add_option("--ros2-end-after", run.ros2_end_after_s,
-                  "end the flight after this many seconds without an image (a finished bag; 0: never)")
+  app->add_option("--end-after", run.end_after_s,
+                  "live input (--video DEVICE|PIPELINE, --ros2-image): end the flight after this many seconds without "
+                  "a frame (a finished bag or pipeline; 0: wait for ever)")
       ->capture_default_str();
   app->add_option("--trajectory", run.trajectory_out, "write the per-frame trajectory (TUM format)");
   app->add_option("--keyframes", run.keyframes_out, "write the keyframe trajectory (TUM format)");

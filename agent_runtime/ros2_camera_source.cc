@@ -7,6 +7,7 @@
 
 #include "agent_runtime/ros2_camera_conversion.h"
 #include "runtime_common/topics.h"
+#include "slam_core/common/stopwatch.h"
 
 namespace ccm::agent {
 namespace {
@@ -15,9 +16,7 @@ using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
 // How often waits look at *stop and at the clock.
-constexpr milliseconds kPoll(100);
-
-double SecondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+constexpr milliseconds kRos2Poll(100);
 
 bool SameCalibration(const CameraIntrinsics& a, const CameraIntrinsics& b) {
   return a.type == b.type && a.width_px == b.width_px && a.height_px == b.height_px && a.fx == b.fx && a.fy == b.fy &&
@@ -34,7 +33,7 @@ std::string Ros2CameraOptions::Validate() const {
   if (queue < 1 || queue > 1000) return "--ros2-queue must be in 1..1000";
   if (!(info_wait_s > 0)) return "the camera info wait must be > 0 s";
   if (!(stall_s > 0)) return "the stall report period must be > 0 s";
-  if (!(end_after_s >= 0)) return "--ros2-end-after must be >= 0 (0: wait for ever)";
+  if (!(end_after_s >= 0)) return "--end-after must be >= 0 (0: wait for ever)";
   return "";
 }
 
@@ -95,7 +94,7 @@ Ros2CameraSource::~Ros2CameraSource() {
 bool Ros2CameraSource::WaitForCameraInfo(std::string* error) {
   const auto start = Clock::now();
   while (SecondsSince(start) < options_.info_wait_s && !Stopped()) {
-    auto info = infos_->Pop(kPoll);
+    auto info = infos_->Pop(kRos2Poll);
     if (!info) continue;
     std::string problem;
     if (!Ros2CameraInfoToIntrinsics(*info, &intrinsics_, &problem)) {
@@ -132,7 +131,7 @@ void Ros2CameraSource::CheckCameraInfoUpdates() {
 
 std::optional<Frame> Ros2CameraSource::Next() {
   while (!Stopped()) {
-    auto image = images_->Pop(kPoll);
+    auto image = images_->Pop(kRos2Poll);
     if (!image) {
       const double silent_s = SecondsSince(last_image_);
       if (silent_s >= options_.stall_s && !stall_reported_) {
@@ -142,7 +141,7 @@ std::optional<Frame> Ros2CameraSource::Next() {
                      "the map is kept", image_dds_topic_, silent_s, counters_.delivered, images_->matched());
       }
       if (options_.end_after_s > 0 && silent_s >= options_.end_after_s) {
-        spdlog::info("ROS 2 camera: no image for {:.1f} s (--ros2-end-after): the flight ends", silent_s);
+        spdlog::info("ROS 2 camera: no image for {:.1f} s (--end-after): the flight ends", silent_s);
         return std::nullopt;
       }
       continue;

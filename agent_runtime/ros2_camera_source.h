@@ -66,6 +66,8 @@ class Ros2CameraSource : public FrameSource {
     int64_t stalls = 0;             ///< silences longer than stall_s
   };
   Counters counters() const;
+  /// Image publishers matched so far (DDS discovery).
+  int image_publishers() const { return images_->matched(); }
 
  private:
   explicit Ros2CameraSource(const Ros2CameraOptions& options) : options_(options) {}

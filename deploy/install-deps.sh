@@ -21,6 +21,7 @@ TEST_PACKAGES=(
   dpkg-dev file  # Debian packages (cpack DEB: dpkg-shlibdeps, file); ctest packaging_debian
   chromium       # the map view page in a headless browser (ctest MapViewPage.*)
   python3-prometheus-client  # parses /metrics in a test (Prometheus' own text-format parser)
+  gstreamer1.0-plugins-base  # videotestsrc: a GStreamer pipeline as a live camera (ctest LiveCameraSource.*)
 )
 [ "$demo_only" = 1 ] || PACKAGES+=("${TEST_PACKAGES[@]}")
 

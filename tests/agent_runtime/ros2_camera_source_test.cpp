@@ -76,6 +76,17 @@ Ros2CameraOptions Options() {
   return o;
 }
 
+// Discovery is not symmetric: a BEST_EFFORT sample written before the reader knows the writer
+// is dropped, so both sides must have matched before a test writes single images.
+void WaitForBothSides(FakeDriver* driver, const Ros2CameraSource& source) {
+  ASSERT_TRUE(driver->images->WaitForMatch(1, milliseconds(10000)));
+  const auto until = std::chrono::steady_clock::now() + milliseconds(10000);
+  while (source.image_publishers() < 1 && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(milliseconds(10));
+  }
+  ASSERT_GE(source.image_publishers(), 1);
+}
+
 // The driver publishes its camera info until the source has it (it may start first).
 std::unique_ptr<Ros2CameraSource> CreateWithDriver(FakeDriver* driver, const Ros2CameraOptions& options,
                                                    std::string* error) {
@@ -89,7 +100,7 @@ std::unique_ptr<Ros2CameraSource> CreateWithDriver(FakeDriver* driver, const Ros
   auto source = Ros2CameraSource::Create(options, error);
   done = true;
   publisher.join();
-  if (source) driver->images->WaitForMatch(1, milliseconds(10000));
+  if (source) WaitForBothSides(driver, *source);
   return source;
 }
 
@@ -184,7 +195,7 @@ TEST(Ros2CameraSource, WithoutACameraInfoTheErrorSaysWhatToCheck) {
   o.calibration = c;
   auto source = Ros2CameraSource::Create(o, &error);
   ASSERT_TRUE(source) << error;
-  ASSERT_TRUE(driver.images->WaitForMatch(1, milliseconds(10000)));
+  WaitForBothSides(&driver, *source);
   driver.Image(1000, 5);
   EXPECT_FALSE(source->Next());
   EXPECT_NE(source->error().find("images are 64x48 but the calibration is for 32x24"), std::string::npos)

@@ -126,6 +126,9 @@ int main(int argc, char** argv) {
   if (!images->WaitForMatch(1, std::chrono::milliseconds(static_cast<int>(wait_s * 1000)))) {
     return std::cerr << "no subscriber to " << image_topic << " within " << wait_s << " s\n", 1;
   }
+  // The reader may learn of this writer a little after the writer learnt of it (discovery is
+  // not symmetric), and BEST_EFFORT samples sent before that are dropped: a moment for both.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
   ccm::Trajectory truth;
   int published = 0, failed = 0;
   const auto start = Clock::now();

@@ -45,7 +45,7 @@ TEST(Ros2Camera, AnAgentTracksAFlightPublishedAsRos2ImagesAsWellAsFromTheDataset
   // The camera at 15 Hz; the agent keeps every image (--ros2-queue) so that both runs see the
   // same frames, and ends 3 s after the last one.
   ChildProcess agent({CCM_AGENT, "--standalone", "--ros2-image", "/camera/image_raw", "--ros2-domain",
-                      kRos2CameraDomain, "--ros2-queue", "1000", "--ros2-end-after", "3", "--qos", qos, "--trajectory",
+                      kRos2CameraDomain, "--ros2-queue", "1000", "--end-after", "3", "--qos", qos, "--trajectory",
                       dir + "/ros2.tum", "--log-level", "warn"},
                      dir + "/agent.log");
   ChildProcess camera({CCM_ROS2_CAMERA, "--domain", kRos2CameraDomain, "--qos", qos, "--frames", frames, "--rate", "15",
