@@ -2,10 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
-#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "slam_core/common/stopwatch.h"
+#include "slam_core/io/video_source.h"
 
 namespace ccm::agent {
 namespace {
@@ -98,13 +98,7 @@ void LiveCameraSource::CaptureLoop() {
     }
     Frame f;
     f.stamp_ns = WallClockNs();
-    if (image.channels() == 3) {
-      cv::cvtColor(image, f.image, cv::COLOR_BGR2GRAY);
-    } else if (image.channels() == 4) {
-      cv::cvtColor(image, f.image, cv::COLOR_BGRA2GRAY);
-    } else {
-      f.image = image;
-    }
+    f.image = GrayFromCapture(image);
     std::lock_guard<std::mutex> lock(mutex_);
     if (f.image.cols != intrinsics_.width_px || f.image.rows != intrinsics_.height_px || f.image.depth() != CV_8U) {
       grab_problem_ = options_.name + ": delivers " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +

@@ -7,6 +7,13 @@
 
 namespace ccm {
 
+cv::Mat GrayFromCapture(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
 std::unique_ptr<VideoSource> VideoSource::Open(const std::string& device_or_file, const CameraIntrinsics& intrinsics,
                                                IoStatus* status) {
   std::unique_ptr<VideoSource> s(new VideoSource());
@@ -52,13 +59,7 @@ std::optional<Frame> VideoSource::Next() {
     return std::nullopt;
   }
   Frame f;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, f.image, cv::COLOR_BGR2GRAY);
-  } else if (image.channels() == 4) {
-    cv::cvtColor(image, f.image, cv::COLOR_BGRA2GRAY);
-  } else {
-    f.image = image;
-  }
+  f.image = GrayFromCapture(image);
   // Files: stamps from the frame rate (repeatable). Devices: wall clock at capture.
   f.stamp_ns = is_file_ ? start_ns_ + static_cast<int64_t>(1e9 * index_ / fps_)
                         : std::chrono::duration_cast<std::chrono::nanoseconds>(

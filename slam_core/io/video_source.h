@@ -14,6 +14,9 @@
 
 namespace ccm {
 
+/// A captured frame (gray, BGR or BGRA, as OpenCV's backends deliver) as 8-bit gray.
+cv::Mat GrayFromCapture(const cv::Mat& image);
+
 class VideoSource : public FrameSource {
  public:
   /// `device_or_file`: "0", "/dev/video0" or a video file path. nullptr + status on failure

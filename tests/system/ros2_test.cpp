@@ -19,6 +19,26 @@ using testing::ChildProcess;
 
 constexpr const char* kRos2Domain = "196";
 
+// The agent flies to its end, the echo hears a round after its last keyframe, then the echo
+// and the server stop; the echo's JSON line, or null after a failure (reported here).
+nlohmann::json EchoAfterFlight(ChildProcess& server, ChildProcess& echo, ChildProcess& agent) {
+  if (agent.Wait(std::chrono::seconds(300)) != 0) {
+    ADD_FAILURE() << agent.Output() << "\n" << server.Output();
+    return nullptr;
+  }
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  echo.Signal(SIGTERM);
+  const int echo_exit = echo.Wait(std::chrono::seconds(30));
+  server.Signal(SIGTERM);
+  const std::string out = echo.Output();
+  const auto j = nlohmann::json::parse(out.substr(out.rfind("\n{") + 1), nullptr, false);
+  if (echo_exit != 0 || !j.is_object()) {
+    ADD_FAILURE() << "echo exit " << echo_exit << ": " << out << "\n" << server.Output();
+    return nullptr;
+  }
+  return j;
+}
+
 TEST(Ros2, ALiveServersPathTfAndCloudReachARos2ReaderAndMatchTheGroundTruth) {
   const std::string dir = ::testing::TempDir() + "/ros2_live";
   std::filesystem::remove_all(dir);
@@ -37,14 +57,8 @@ TEST(Ros2, ALiveServersPathTfAndCloudReachARos2ReaderAndMatchTheGroundTruth) {
                       dir + "/gt.tum", "--log-level", "warn"},
                      dir + "/agent.log");
   ASSERT_TRUE(server.started() && echo.started() && agent.started());
-  ASSERT_EQ(agent.Wait(std::chrono::seconds(300)), 0) << agent.Output();
-  std::this_thread::sleep_for(std::chrono::seconds(3));  // a round after the last keyframe
-  ASSERT_TRUE(echo.Signal(SIGTERM));
-  ASSERT_EQ(echo.Wait(std::chrono::seconds(30)), 0) << echo.Output();
-  ASSERT_TRUE(server.Signal(SIGTERM));
-  const std::string out = echo.Output();
-  const auto j = nlohmann::json::parse(out.substr(out.rfind("\n{") + 1), nullptr, false);
-  ASSERT_TRUE(j.is_object()) << out << "\n" << server.Output();
+  const nlohmann::json j = EchoAfterFlight(server, echo, agent);
+  ASSERT_TRUE(j.is_object());
   EXPECT_GE(j["paths"].get<int>(), 10) << j.dump();  // one per second of flight
   EXPECT_EQ(j.value("frame_id", ""), "map") << j.dump();
   EXPECT_GE(j.value("poses", 0), 15) << j.dump();
@@ -90,14 +104,8 @@ TEST(Ros2, ASecureServersOutputsReachAnOpenRos2Reader) {
                       "--security-dir", dir + "/pki/agent_1", "--log-level", "warn"},
                      dir + "/agent.log");
   ASSERT_TRUE(server.started() && echo.started() && agent.started());
-  ASSERT_EQ(agent.Wait(std::chrono::seconds(300)), 0) << agent.Output() << server.Output();
-  std::this_thread::sleep_for(std::chrono::seconds(3));
-  ASSERT_TRUE(echo.Signal(SIGTERM));
-  ASSERT_EQ(echo.Wait(std::chrono::seconds(30)), 0) << echo.Output();
-  ASSERT_TRUE(server.Signal(SIGTERM));
-  const std::string out = echo.Output();
-  const auto j = nlohmann::json::parse(out.substr(out.rfind("\n{") + 1), nullptr, false);
-  ASSERT_TRUE(j.is_object()) << out << "\n" << server.Output();
+  const nlohmann::json j = EchoAfterFlight(server, echo, agent);
+  ASSERT_TRUE(j.is_object());
   EXPECT_GE(j["paths"].get<int>(), 5) << j.dump() << "\n" << server.Output();
   EXPECT_EQ(j.value("frame_id", ""), "map") << j.dump();
   EXPECT_GE(j.value("poses", 0), 10) << j.dump();
