@@ -40,6 +40,17 @@ using Clock = std::chrono::steady_clock;
 
 }  // namespace
 
+namespace {
+
+// --calibration FILE for the inputs that carry none (a camera; ROS 2 images instead of CameraInfo).
+bool ReadCalibration(const std::string& path, CameraIntrinsics* intrinsics, std::string* error) {
+  const IoStatus status = ReadCalibrationYaml(path, intrinsics);
+  if (!status.ok()) *error = status.message();
+  return status.ok();
+}
+
+}  // namespace
+
 std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile bool* stop, std::string* error) {
   if (!o.ros2_image.empty()) {
     Ros2CameraOptions r;
@@ -53,10 +64,7 @@ std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile
     r.stop = stop;
     if (!o.calibration.empty()) {
       CameraIntrinsics intrinsics;
-      if (const IoStatus status = ReadCalibrationYaml(o.calibration, &intrinsics); !status.ok()) {
-        *error = status.message();
-        return nullptr;
-      }
+      if (!ReadCalibration(o.calibration, &intrinsics, error)) return nullptr;
       r.calibration = intrinsics;
     }
     return Ros2CameraSource::Create(r, error);
@@ -80,15 +88,10 @@ std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile
   }
   if (!o.video.empty()) {
     CameraIntrinsics intrinsics;
-    IoStatus status = ReadCalibrationYaml(o.calibration, &intrinsics);
-    if (!status.ok()) {
-      *error = status.message();
-      return nullptr;
-    }
+    if (!ReadCalibration(o.calibration, &intrinsics, error)) return nullptr;
     // A camera or a GStreamer pipeline: live (its own capture thread, skips, stalls, reopen).
     if (!std::filesystem::is_regular_file(o.video)) {
-      if (!IsGStreamerPipeline(o.video) && o.video.find_first_not_of("0123456789") != std::string::npos &&
-          !std::filesystem::exists(o.video)) {
+      if (!IsGStreamerPipeline(o.video) && !IsCameraIndex(o.video) && !std::filesystem::exists(o.video)) {
         *error = o.video + ": cannot open camera or video (no such file or device)";
         return nullptr;
       }
@@ -98,6 +101,7 @@ std::unique_ptr<FrameSource> OpenFrameSource(const RunOptions& o, const volatile
       live.stop = stop;
       return LiveCameraSource::Create(MakeOpenCvGrabber(o.video), intrinsics, live, error);
     }
+    IoStatus status;
     auto video = VideoSource::Open(o.video, intrinsics, &status);
     if (!video) *error = status.message();
     return video;

@@ -23,7 +23,7 @@ class OpenCvGrabber : public FrameGrabber {
  public:
   explicit OpenCvGrabber(std::string input) : input_(std::move(input)) {}
   bool Open() override {
-    const bool index = !input_.empty() && input_.find_first_not_of("0123456789") == std::string::npos;
+    const bool index = IsCameraIndex(input_);
     if (IsGStreamerPipeline(input_)) return capture_.open(input_, cv::CAP_GSTREAMER) && capture_.isOpened();
     return (index ? capture_.open(std::stoi(input_)) : capture_.open(input_)) && capture_.isOpened();
   }

@@ -19,7 +19,7 @@ std::unique_ptr<VideoSource> VideoSource::Open(const std::string& device_or_file
   std::unique_ptr<VideoSource> s(new VideoSource());
   s->intrinsics_ = intrinsics;
   s->name_ = device_or_file;
-  const bool is_index = !device_or_file.empty() && device_or_file.find_first_not_of("0123456789") == std::string::npos;
+  const bool is_index = IsCameraIndex(device_or_file);
   s->is_file_ = !is_index && std::filesystem::is_regular_file(device_or_file);
   if (!is_index && !std::filesystem::exists(device_or_file)) {
     // Checked here so OpenCV's backends do not print their own failure chatter first.

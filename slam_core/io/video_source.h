@@ -14,6 +14,10 @@
 
 namespace ccm {
 
+/// "0", "1", ...: a camera by index (V4L2), not a path.
+inline bool IsCameraIndex(const std::string& input) {
+  return !input.empty() && input.find_first_not_of("0123456789") == std::string::npos;
+}
 /// A captured frame (gray, BGR or BGRA, as OpenCV's backends deliver) as 8-bit gray.
 cv::Mat GrayFromCapture(const cv::Mat& image);
 
