@@ -168,6 +168,11 @@ bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunE
     if (!a.ground_truth.empty() && !WriteTum(dir + "/" + a.name + "_ground_truth.tum", a.ground_truth, error)) {
       return false;
     }
+    // The agent's own estimate of its keyframes (its VO, all segments): what the map's copy
+    // is compared with ("ATE VO" against "ATE map").
+    if (!a.vo_keyframes.empty() && !WriteTum(dir + "/" + a.name + "_vo_keyframes.tum", a.vo_keyframes, error)) {
+      return false;
+    }
   }
   for (const MapScore& ms : ev.map_scores) {
     for (const AgentInMap& part : ms.agents) {

@@ -113,6 +113,7 @@ Trajectory KeyframesInMap(const std::vector<ServerKeyframePose>& kfs, MapId map)
 
 /// Writes into `dir`: map<k>_<agent>_keyframes.tum for every map and agent in it,
 /// <agent>_keyframes.tum (largest map, as before maps were listed), <agent>_ground_truth.tum,
+/// <agent>_vo_keyframes.tum (the agent's own estimate at the end),
 /// summary.json (every map), map.ply / map<k>.ply, map_top.png (a panel per map). The map
 /// files are drawn from `maps` (ServerBackend::Snapshot()).
 bool WriteRunOutputs(const std::string& dir, const RunResult& result, const RunEvaluation& evaluation,

@@ -1,15 +1,20 @@
 #!/usr/bin/env bash
-# Long flight (issue 28): one ccm_agent flies hall3's agent-0 loop for LONG_MINUTES (default
-# 60) against a ccm_server that saves its map file every LONG_AUTOSAVE s (default 20, the
-# packaged value), over qos_profiles/wifi.xml. Every LONG_SAMPLE_S s it samples both
-# processes' resident memory (/proc/PID/status VmRSS) into OUT/memory.csv. At the end it
-# prints the agent's summary counters and the memory at each tenth of the flight.
+# Long flight (issues 28 and 29): one ccm_agent flies hall3's agent-0 loop for LONG_MINUTES
+# (default 60), against a ccm_server that saves its map file every LONG_AUTOSAVE s (default
+# 20, the packaged value) over qos_profiles/wifi.xml, or with LONG_SERVER=0 alone
+# (--standalone: a flight without a ground station). Every LONG_SAMPLE_S s
+# flight_sampler.py writes OUT/samples.csv: both processes' resident memory and CPU, and the
+# agent's frames, keyframes, unacknowledged keyframes and backlog from its --metrics endpoint.
+# At the end it prints the agent's summary counters and the samples at each tenth of the flight.
 # Pass (exit 0): nothing lost, nothing unacknowledged, no failed write, no keyframe dropped
-# before the server saved it, and the agent's RSS at the end within LONG_RSS_SLACK_MB
-# (default 20) of its RSS at LONG_WARMUP_MIN (default 5) minutes: flat over the flight.
+# before the server saved it (with a server), and flat from LONG_WARMUP_MIN (default 5) minutes
+# to the end: agent RSS within LONG_RSS_SLACK_MB (default 20), CPU per frame of the last tenth
+# at most LONG_CPU_RATIO (default 1.3) times that of the first tenth after the warm-up, and
+# unacknowledged keyframes of the last tenth at most those of the first tenth + 20.
 #
 # usage: tests/fault_harness/long_flight.sh [OUT_DIR]   (env: BUILD_DIR, LONG_MINUTES=60,
-#        LONG_RATE=1 (of real time), LONG_AUTOSAVE=20, LONG_SAMPLE_S=30, LONG_DOMAIN=191)
+#        LONG_SERVER=1, LONG_RATE=1 (of real time), LONG_AUTOSAVE=20, LONG_SAMPLE_S=30,
+#        LONG_DOMAIN=191, LONG_METRICS_PORT=9471)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 BIN="${BUILD_DIR:-$ROOT/build}"
@@ -21,6 +26,9 @@ SAMPLE_S="${LONG_SAMPLE_S:-30}"
 WARMUP_MIN="${LONG_WARMUP_MIN:-5}"
 SLACK_MB="${LONG_RSS_SLACK_MB:-20}"
 DOMAIN="${LONG_DOMAIN:-191}"
+WITH_SERVER="${LONG_SERVER:-1}"
+CPU_RATIO="${LONG_CPU_RATIO:-1.3}"
+METRICS_PORT="${LONG_METRICS_PORT:-9471}"
 QOS="$ROOT/qos_profiles/wifi.xml"
 for b in server_runtime/ccm_server agent_runtime/ccm_agent tests/sim/ccm_sim; do
   [ -x "$BIN/$b" ] || { echo "missing $BIN/$b: build first (deploy/build.sh)"; exit 2; }
@@ -33,63 +41,27 @@ source "$ROOT/tests/fault_harness/long_hall3.sh"
 write_long_hall3 "$BIN" "$OUT/hall3.yaml" "$flight_s"
 frames=$((flight_s * 20))
 
-"$BIN/server_runtime/ccm_server" --qos "$QOS" --domain "$DOMAIN" --map-file "$OUT/stack.ccmmap" \
-  --autosave "$AUTOSAVE" --out "$OUT/server" --progress 60 --idle-exit 20 --log-level info >"$OUT/server.log" 2>&1 &
-server=$!
-"$BIN/agent_runtime/ccm_agent" --qos "$QOS" --domain "$DOMAIN" --log-level warn --agent-id 1 \
-  --sim "$OUT/hall3.yaml" --sim-agent 0 --max-frames "$frames" --rate "$RATE" --drain 120 >"$OUT/agent.log" 2>&1 &
+server=""
+agent_link=(--qos "$QOS" --domain "$DOMAIN" --drain 120)
+if [ "$WITH_SERVER" = 1 ]; then
+  "$BIN/server_runtime/ccm_server" --qos "$QOS" --domain "$DOMAIN" --map-file "$OUT/stack.ccmmap" \
+    --autosave "$AUTOSAVE" --out "$OUT/server" --progress 60 --idle-exit 20 --log-level info >"$OUT/server.log" 2>&1 &
+  server=$!
+else
+  agent_link=(--standalone)
+fi
+"$BIN/agent_runtime/ccm_agent" "${agent_link[@]}" --log-level warn --agent-id 1 --metrics "$METRICS_PORT" \
+  --sim "$OUT/hall3.yaml" --sim-agent 0 --max-frames "$frames" --rate "$RATE" >"$OUT/agent.log" 2>&1 &
 agent=$!
 trap 'kill $agent $server 2>/dev/null || true' EXIT
-rss_mb() { awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$1/status" 2>/dev/null || echo ""; }
-echo "minute,agent_rss_mb,server_rss_mb" >"$OUT/memory.csv"
-start=$SECONDS
-while kill -0 $agent 2>/dev/null; do
-  a=$(rss_mb $agent)
-  s=$(rss_mb $server)
-  [ -n "$a" ] && echo "$(python3 -c "print(round(($SECONDS - $start) / 60, 2))"),$a,$s" >>"$OUT/memory.csv"
-  sleep "$SAMPLE_S"
-done
+python3 "$ROOT/tests/fault_harness/flight_sampler.py" "$OUT/samples.csv" "$SAMPLE_S" "$agent" \
+  "http://127.0.0.1:$METRICS_PORT/metrics" $server
 wait $agent && agent_rc=0 || agent_rc=$?
-kill -INT $server 2>/dev/null || true
-wait $server || true
+if [ -n "$server" ]; then
+  kill -INT $server 2>/dev/null || true
+  wait $server || true
+fi
 trap - EXIT
 
-python3 - "$OUT" "$agent_rc" "$WARMUP_MIN" "$SLACK_MB" "$ROOT/tests/fault_harness" <<'PY'
-import csv, pathlib, sys
-out, agent_rc, warmup, slack = pathlib.Path(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
-sys.path.insert(0, sys.argv[5])
-from grid_report import last_json_line as last_json  # the fault grid's reader of a summary line
-rows = [(float(r["minute"]), float(r["agent_rss_mb"]), float(r["server_rss_mb"] or 0))
-        for r in csv.DictReader(open(out / "memory.csv"))]
-j = last_json(out / "agent.log") or {}
-link = j.get("link", {})
-ok = agent_rc == 0
-lines = [f"agent exit code {agent_rc}; frames {j.get('frames')}, tracked {j.get('tracked')}, "
-         f"keyframes created {j.get('keyframes_created')}"]
-keys = ["kfs_sent", "kfs_acked", "kfs_unacked", "kfs_persisted", "kfs_unpersisted", "kfs_resent", "write_failures"]
-lines.append("link: " + ", ".join(f"{k} {link.get(k)}" for k in keys))
-lines.append(f"keyframes lost {j.get('keyframes_lost')}, dropped before the server saved them "
-             f"{j.get('keyframes_dropped_unpersisted')}; peak RSS {j.get('footprint', {}).get('peak_rss_mb')} MB")
-ok &= j.get("keyframes_lost") == 0 and link.get("kfs_unacked") == 0 and link.get("write_failures") == 0
-ok &= j.get("keyframes_dropped_unpersisted") == 0
-lines.append("| minute | agent RSS MB | server RSS MB |")
-lines.append("|---|---|---|")
-if rows:
-    step = max(1, len(rows) // 10)
-    for m, a, s in rows[::step] + ([rows[-1]] if (len(rows) - 1) % step else []):
-        lines.append(f"| {m:.1f} | {a:.1f} | {s:.1f} |")
-    after = [a for m, a, s in rows if m >= warmup]
-    if after:
-        growth = after[-1] - after[0]
-        lines.append(f"agent RSS from minute {warmup:g} to the end: {after[0]:.1f} -> {after[-1]:.1f} MB "
-                     f"({growth:+.1f} MB; max {max(after):.1f})")
-        ok &= growth <= slack
-    else:
-        ok = False; lines.append(f"the flight ended before minute {warmup:g}")
-else:
-    ok = False
-lines.append("PASS" if ok else "FAIL")
-(out / "long_flight.md").write_text("\n".join(lines) + "\n")
-print("\n".join(lines))
-sys.exit(0 if ok else 1)
-PY
+python3 "$ROOT/tests/fault_harness/long_flight_report.py" "$OUT" "$agent_rc" "$WITH_SERVER" "$WARMUP_MIN" \
+  "$SLACK_MB" "$CPU_RATIO"
