@@ -102,6 +102,7 @@ TEST(ReplayReport, WritesEveryMapsTrajectoriesSummaryAndPanels) {
   EXPECT_EQ(count("map2_C_keyframes.tum"), 10u);
   EXPECT_EQ(count("A_keyframes.tum"), 15u) << "the largest map under the old name";
   EXPECT_FALSE(std::filesystem::exists(dir + "/map2_A_keyframes.tum"));
+  EXPECT_EQ(count("C_vo_keyframes.tum"), 20u) << "the agent's own estimate, every keyframe it made";
   for (const char* f : {"map.ply", "map2.ply", "summary.json", "C_ground_truth.tum"}) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/" + f)) << f;
   }
