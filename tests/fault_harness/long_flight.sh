@@ -14,7 +14,8 @@
 #
 # usage: tests/fault_harness/long_flight.sh [OUT_DIR]   (env: BUILD_DIR, LONG_MINUTES=60,
 #        LONG_SERVER=1, LONG_RATE=1 (of real time), LONG_AUTOSAVE=20, LONG_SAMPLE_S=30,
-#        LONG_DOMAIN=191, LONG_METRICS_PORT=9471)
+#        LONG_DOMAIN=191, LONG_METRICS_PORT=9471, LONG_AGENT_ARGS: more ccm_agent options, e.g.
+#        "--config deploy/config/agent-embedded.yaml" for the embedded profile)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 BIN="${BUILD_DIR:-$ROOT/build}"
@@ -29,6 +30,7 @@ DOMAIN="${LONG_DOMAIN:-191}"
 WITH_SERVER="${LONG_SERVER:-1}"
 CPU_RATIO="${LONG_CPU_RATIO:-1.3}"
 METRICS_PORT="${LONG_METRICS_PORT:-9471}"
+read -r -a EXTRA_AGENT_ARGS <<<"${LONG_AGENT_ARGS:-}"
 QOS="$ROOT/qos_profiles/wifi.xml"
 for b in server_runtime/ccm_server agent_runtime/ccm_agent tests/sim/ccm_sim; do
   [ -x "$BIN/$b" ] || { echo "missing $BIN/$b: build first (deploy/build.sh)"; exit 2; }
@@ -50,7 +52,7 @@ if [ "$WITH_SERVER" = 1 ]; then
 else
   agent_link=(--standalone)
 fi
-"$BIN/agent_runtime/ccm_agent" "${agent_link[@]}" --log-level warn --agent-id 1 --metrics "$METRICS_PORT" \
+"$BIN/agent_runtime/ccm_agent" "${agent_link[@]}" "${EXTRA_AGENT_ARGS[@]}" --log-level warn --agent-id 1 --metrics "$METRICS_PORT" \
   --sim "$OUT/hall3.yaml" --sim-agent 0 --max-frames "$frames" --rate "$RATE" >"$OUT/agent.log" 2>&1 &
 agent=$!
 trap 'kill $agent $server 2>/dev/null || true' EXIT
