@@ -53,12 +53,16 @@ def main():
         ok = False
     else:
         step = max(1, len(rows) // 10)
+        def cell(r, key, fmt, scale=1.0):
+            v = num(r, key)
+            return "" if v is None else format(v * scale, fmt)
+
         for r in rows[::step] + ([rows[-1]] if (len(rows) - 1) % step else []):
-            backlog = num(r, "backlog_bytes")
-            lines.append(f"| {r['minute']} | {r['agent_rss_mb'][:6]} | {r['agent_cpu_ms_per_frame']} | "
-                         f"{r['agent_cpu_cores']} | {r['keyframes'][:-2]} | {r['kfs_unacked'][:-2]} | "
-                         f"{'' if backlog is None else round(backlog / 1000, 1)} | {r['server_rss_mb'][:6]} | "
-                         f"{r['server_cpu_cores']} |")
+            cells = [cell(r, "minute", ".1f"), cell(r, "agent_rss_mb", ".1f"), cell(r, "agent_cpu_ms_per_frame", ".1f"),
+                     cell(r, "agent_cpu_cores", ".2f"), cell(r, "keyframes", ".0f"), cell(r, "kfs_unacked", ".0f"),
+                     cell(r, "backlog_bytes", ".1f", 1e-3), cell(r, "server_rss_mb", ".1f"),
+                     cell(r, "server_cpu_cores", ".2f")]
+            lines.append("| " + " | ".join(cells) + " |")
         after = [r for r in rows if float(r["minute"]) >= warmup]
         if len(after) < 6:
             ok = False
