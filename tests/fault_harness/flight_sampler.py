@@ -4,8 +4,9 @@
 Every SAMPLE_S seconds one row goes to OUT.csv: the agent's and the server's resident memory
 (/proc/PID/status VmRSS), their CPU over the interval (/proc/PID/stat utime + stime), and the
 agent's Prometheus counters (frames, keyframes, unacknowledged keyframes, backlog bytes) read
-from its --metrics endpoint. CPU per frame is the agent's CPU over the interval divided by the
-frames it processed in that interval, so a slower day moves the level, not the slope.
+from its --metrics endpoint with Prometheus' own parser (tests/prometheus_scrape.py). CPU per
+frame is the agent's CPU over the interval divided by the frames it processed in that
+interval, so a slower day moves the level, not the slope.
 
 usage: flight_sampler.py OUT.csv SAMPLE_S AGENT_PID METRICS_URL [SERVER_PID]
 """
@@ -14,6 +15,9 @@ import os
 import sys
 import time
 import urllib.request
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from prometheus_scrape import load_parser  # noqa: E402  (Prometheus' own parser of the text format)
 
 TICKS = os.sysconf("SC_CLK_TCK")
 METRICS = {
@@ -44,17 +48,15 @@ def cpu_s(pid):
         return None
 
 
-def scrape(url):
+def scrape(url, parse):
     values = {}
     try:
         with urllib.request.urlopen(url, timeout=2) as r:
-            for line in r.read().decode().splitlines():
-                if line.startswith("#") or not line.strip():
-                    continue
-                name = line.split("{", 1)[0].split(" ", 1)[0]
-                if name in METRICS:
-                    values[METRICS[name]] = float(line.rsplit(" ", 1)[1])
-    except OSError:
+            for family in parse(r.read().decode()):
+                for sample in family.samples:
+                    if sample.name in METRICS:
+                        values[METRICS[sample.name]] = sample.value
+    except (OSError, ValueError):
         pass
     return values
 
@@ -70,6 +72,7 @@ def alive(pid):
 def main():
     out, sample_s, agent, url = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     server = int(sys.argv[5]) if len(sys.argv) > 5 else None
+    parse = load_parser()
     cols = ["minute", "agent_rss_mb", "server_rss_mb", "agent_cpu_ms_per_frame", "agent_cpu_cores",
             "server_cpu_cores", "frames", "keyframes", "kfs_unacked", "backlog_bytes"]
     start = time.monotonic()
@@ -81,7 +84,7 @@ def main():
             time.sleep(sample_s)
             now, a_cpu = time.monotonic(), cpu_s(agent)
             s_cpu = cpu_s(server) if server else None
-            m = scrape(url)
+            m = scrape(url, parse)
             if a_cpu is None or "frames" not in m:
                 continue
             row = {"minute": round((now - start) / 60.0, 2), "agent_rss_mb": rss_mb(agent),
