@@ -24,6 +24,8 @@
 #   live ccm_server (ServerComm, BackendRunner, map view) with two ccm_agent (AgentComm,
 #   AgentVo's mapping thread) over DDS for SAN_LIVE_FRAMES frames each; then ccm_server with a
 #   ccm_fleet of six recorded agents (deploy/tsan-fleet-run.sh, SAN_FLEET_RECORDING).
+# A part of the asan job: ASAN_TESTS="vo_test server_test" (unit binaries to build and run;
+# default all) and ASAN_FUZZ="transport reassembly map-files" (fuzz steps; "" for none).
 # Suppressions (third-party code only, each explained): deploy/lsan.supp, deploy/tsan.supp.
 # Any finding fails the job (halt_on_error). Logs: $LOG_DIR (default build-*/sanitizer-logs).
 #
@@ -90,12 +92,18 @@ asan() {
   local B="${ASAN_BUILD_DIR:-$ROOT/build-asan}"
   LOG_DIR="${LOG_DIR_ASAN:-$B/sanitizer-logs}"
   mkdir -p "$LOG_DIR"
-  local tests=(common_test geometry_test feature_test matching_test map_test io_test solvers_test optimization_test
-    eval_test ccm_eval_cli_test place_recognition_test sim_test vo_test server_test agent_runtime_test
-    server_runtime_test transport_test)
+  local all_tests="common_test geometry_test feature_test matching_test map_test io_test solvers_test
+    optimization_test eval_test ccm_eval_cli_test place_recognition_test sim_test vo_test server_test
+    agent_runtime_test server_runtime_test transport_test"
+  local tests fuzz_steps="${ASAN_FUZZ-transport reassembly map-files}" targets
+  read -r -a tests <<<"$(echo ${ASAN_TESTS:-$all_tests})"
+  targets=("${tests[@]}")
+  case " $fuzz_steps " in *" transport "*) targets+=(transport_test) ;; esac
+  case " $fuzz_steps " in *" reassembly "*) targets+=(server_runtime_test) ;; esac
+  case " $fuzz_steps " in *" map-files "*) targets+=(server_test) ;; esac
   configure "$B" -DCCM_SANITIZE=ON
   local start=$SECONDS
-  cmake --build "$B" -j "$JOBS" --target "${tests[@]}"
+  cmake --build "$B" -j "$JOBS" --target "${targets[@]}"
   echo "[sanitizers] asan build: $((SECONDS - start)) s"
   export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:abort_on_error=0:detect_stack_use_after_return=0"
   export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
@@ -120,12 +128,18 @@ asan() {
       --gtest_filter="$filter"
   done
   export CCM_FUZZ_INPUTS="$FUZZ_INPUTS"
-  run asan-fuzz-transport "$B/tests/transport/transport_test" \
-    --gtest_filter='MsgConversionFuzz.*:AgentStatusFuzz.*:ServerMessageFuzz.*'
-  run asan-fuzz-reassembly "$B/tests/server_runtime/server_runtime_test" --gtest_filter='KeyframeReassemblyFuzz.*'
+  case " $fuzz_steps " in *" transport "*)
+    run asan-fuzz-transport "$B/tests/transport/transport_test" \
+      --gtest_filter='MsgConversionFuzz.*:AgentStatusFuzz.*:ServerMessageFuzz.*' ;;
+  esac
+  case " $fuzz_steps " in *" reassembly "*)
+    run asan-fuzz-reassembly "$B/tests/server_runtime/server_runtime_test" --gtest_filter='KeyframeReassemblyFuzz.*' ;;
+  esac
   # Any single allocation above 256 MB is a finding: a crafted size must not reach malloc.
-  run asan-fuzz-map-files env "ASAN_OPTIONS=$ASAN_OPTIONS:max_allocation_size_mb=256:allocator_may_return_null=0" \
-    "$B/tests/slam_core/server/server_test" --gtest_filter='MapFileFuzz.*'
+  case " $fuzz_steps " in *" map-files "*)
+    run asan-fuzz-map-files env "ASAN_OPTIONS=$ASAN_OPTIONS:max_allocation_size_mb=256:allocator_may_return_null=0" \
+    "$B/tests/slam_core/server/server_test" --gtest_filter='MapFileFuzz.*' ;;
+  esac
   unset CCM_FUZZ_INPUTS
   grep -a -h -E '^[0-9]+ (messages|heartbeats|server messages|inputs|files)' "$LOG_DIR"/asan-fuzz-*.log || true
 }
