@@ -154,7 +154,10 @@ int main(int argc, char** argv) {
   app.add_option("--seeds", seeds_text, "seeds, e.g. 1-20 or 3,7,1001-1005");
   app.add_option("--set", set, "tune (seeds 1-20) or held-out (seeds 1001-1040)")->check(CLI::IsMember({"tune", "held-out"}));
   app.add_option("--jobs", jobs, "scenes replayed at once (one thread each)")->capture_default_str()->check(CLI::Range(1, 16));
-  app.add_option("--max-agents", gen.max_agents, "at most this many agents per scene (2-8)")->capture_default_str();
+  app.add_option("--min-agents", gen.min_agents, "at least this many agents per scene")->capture_default_str();
+  app.add_option("--max-agents", gen.max_agents, "at most this many agents per scene (up to 16; more than 8 makes a "
+                                                 "team-scale hall or yard of 3-4 rows)")
+      ->capture_default_str();
   app.add_option("--min-seconds", gen.min_duration_s, "shortest flight [s]")->capture_default_str();
   app.add_option("--max-seconds", gen.max_duration_s, "longest flight [s]")->capture_default_str();
   app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();

@@ -34,7 +34,8 @@ const char* PlannedOverlapName(PlannedOverlapKind kind) {
 }
 
 std::string SceneGeneratorOptions::Validate() const {
-  if (min_agents < 2 || max_agents > 8 || min_agents > max_agents) return "agents must satisfy 2 <= min <= max <= 8";
+  if (min_agents < 2 || max_agents > kMaxGeneratedAgents || min_agents > max_agents)
+    return "agents must satisfy 2 <= min <= max <= " + std::to_string(kMaxGeneratedAgents);
   if (!(min_duration_s >= 10.0 && max_duration_s >= min_duration_s && max_duration_s <= 600.0))
     return "durations must satisfy 10 <= min <= max <= 600 s";
   return {};

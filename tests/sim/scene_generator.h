@@ -1,6 +1,7 @@
 // Random multi-agent scenes for benchmarks: from a seed, a scenario (YAML of docs/simulator.md)
 // with a layout (room, hall, yard, corridor), objects, a texture profile (rich, mixed, weak),
-// a camera, exposure drift and motion blur, and 2-8 agents flying loops in cells of the
+// a camera, exposure drift and motion blur, and 2-8 agents (up to 16 when asked for: a team-scale
+// hall or yard of 3-4 rows of cells) flying loops in cells of the
 // layout at their own heights and speeds. Neighbouring agents get an overlap of a planned
 // kind: both orbit a shared target object, viewing it from the same direction or from
 // directions 30-60 deg apart, for a brief (2-3 s) or a long time, or they get none.
@@ -32,6 +33,10 @@ struct PlannedOverlap {
   /// without it (the target object stays; the ground truth tells what they saw).
   bool flown = true;
 };
+
+/// Largest team a generated scene holds (a 4 x 4 grid of cells); scenes of more than 8 agents
+/// are never drawn by default (max_agents 8), so the seeds' scenes stay what they were.
+inline constexpr int kMaxGeneratedAgents = 16;
 
 struct SceneGeneratorOptions {
   int min_agents = 2, max_agents = 8;

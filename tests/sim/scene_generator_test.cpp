@@ -139,6 +139,35 @@ TEST(OverlapTruth, KnownScenes) {
   EXPECT_EQ(d.pairs()[0].kind, "none");
 }
 
+// A team-scale scene (issue 30: 16 distinct agents in one map): 16 agents in a 4 x 4 grid of
+// cells of a hall or a yard, each neighbouring pair planned (24 pairs), every flight valid;
+// 17 agents are refused.
+TEST(SceneGenerator, TeamScaleScenesHoldSixteenAgentsInAFourByFourGrid) {
+  SceneGeneratorOptions go;
+  go.min_agents = go.max_agents = kMaxGeneratedAgents;
+  ASSERT_EQ(go.Validate(), "");
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const GeneratedScene g = GenerateScene(seed, go);
+    ASSERT_EQ(g.num_agents, 16);
+    EXPECT_TRUE(g.layout == SceneLayout::kHall || g.layout == SceneLayout::kYard) << SceneLayoutName(g.layout);
+    EXPECT_EQ(g.plan.size(), 24u) << "seed " << seed;
+    int overlapping = 0;
+    for (const PlannedOverlap& p : g.plan) overlapping += p.kind != PlannedOverlapKind::kNone;
+    EXPECT_GE(overlapping, 1);
+    const Scenario s = Parse(g.yaml);
+    ASSERT_EQ(s.Validate(), "") << "seed " << seed;
+    ASSERT_EQ(s.agents.size(), 16u);
+    for (const AgentSpec& a : s.agents) {
+      std::string error;
+      const auto traj = Trajectory::Create(a.trajectory, &error);
+      ASSERT_TRUE(traj) << "seed " << seed << " " << a.name << ": " << error;
+      EXPECT_GE(traj->duration_s(), go.min_duration_s - 1e-6);
+    }
+  }
+  go.max_agents = kMaxGeneratedAgents + 1;
+  EXPECT_NE(go.Validate(), "");
+}
+
 // The planned overlaps are real: a generated scene's pairs planned "same" or "long" share
 // views in the ground truth for about as long as planned, and the view of the same pose
 // with itself is fully shared at zero angle.

@@ -23,6 +23,10 @@ const char* WallStyle(Rng* rng, int profile) {
   return rng->Uniform() < 0.6 ? "weak" : "mixed";
 }
 
+// Halls and yards: one row up to 3 agents, two up to 8, then 3-4 rows (a team-scale scene:
+// 9-16 agents, each overlapping up to four neighbours).
+int RowsOfCells(int agents) { return agents > 12 ? 4 : agents > 8 ? 3 : agents >= 4 ? 2 : 1; }
+
 }  // namespace
 
 bool SceneBuilder::Obstacle::Contains(const Vec2& p, double margin) const {
@@ -48,7 +52,7 @@ void SceneBuilder::MakeSpace() {
       z_lo_ = 0.9, z_hi_ = std::min(2.0, height_ - 0.7);
       break;
     case SceneLayout::kHall:
-      rows_ = num_agents_ >= 4 ? 2 : 1;
+      rows_ = RowsOfCells(num_agents_);
       cols_ = (num_agents_ + rows_ - 1) / rows_;
       cell_ = {r.Uniform(7.0, 10.0), r.Uniform(7.0, 10.0)};
       margin = {r.Uniform(1.0, 3.0), r.Uniform(1.0, 3.0)};
@@ -57,7 +61,7 @@ void SceneBuilder::MakeSpace() {
       texel_m_ = cell_.x() * cols_ > 30.0 ? 0.01 : 0.008;
       break;
     case SceneLayout::kYard:
-      rows_ = num_agents_ >= 4 ? 2 : 1;
+      rows_ = RowsOfCells(num_agents_);
       cols_ = (num_agents_ + rows_ - 1) / rows_;
       cell_ = {r.Uniform(10.0, 14.0), r.Uniform(10.0, 14.0)};
       margin = {r.Uniform(3.0, 6.0), r.Uniform(3.0, 6.0)};
