@@ -40,7 +40,8 @@
 #   allocation 1 MB); server_test: 5 unit tests clean when stopped. Since then (2026-11-29/30,
 #   docs/protocol.md) every unit test binary ran clean to the end (vo_test 1,648 s, server_test
 #   604 s, place_recognition_test 1,087 s on one niced core), and the fuzz steps again;
-#   MapFileFuzz at 100,000 takes about 1.5 h here (10,000 files per 6-10 min).
+#   MapFileFuzz at 100,000: clean, 5,300 s on one niced core (19,014 loaded, 0 invalid,
+#   80,986 refused in 29 kinds, largest allocation 1 MB).
 #   tsan, clean to the end (2026-11-29, idle machine, build 213 s): pipeline 12 tests 118 s,
 #   MapGraph, KeyframeDatabase + vocabulary threads 50 s, AckTracker 23 tests, the live run
 #   147 s (docs/protocol.md: the suppression change it needed). The fleet step (2026-11-29,
