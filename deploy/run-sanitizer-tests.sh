@@ -91,19 +91,25 @@ run() {
   echo "[sanitizers] $name: clean, $((SECONDS - start)) s ${passed:+($passed)}"
 }
 
+# fuzz_step NAME: is that fuzz step in ASAN_FUZZ (default: all three)?
+fuzz_step() {
+  case " ${ASAN_FUZZ-transport reassembly map-files} " in *" $1 "*) return 0 ;; esac
+  return 1
+}
+
 asan() {
   local B="${ASAN_BUILD_DIR:-$ROOT/build-asan}"
   LOG_DIR="${LOG_DIR_ASAN:-$B/sanitizer-logs}"
   mkdir -p "$LOG_DIR"
-  local all_tests="common_test geometry_test feature_test matching_test map_test io_test solvers_test
-    optimization_test eval_test ccm_eval_cli_test place_recognition_test sim_test vo_test server_test
-    agent_runtime_test server_runtime_test transport_test"
-  local tests fuzz_steps="${ASAN_FUZZ-transport reassembly map-files}" targets
-  read -r -a tests <<<"$(echo ${ASAN_TESTS:-$all_tests})"
+  local all_tests="common_test geometry_test feature_test matching_test map_test io_test solvers_test"
+  all_tests+=" optimization_test eval_test ccm_eval_cli_test place_recognition_test sim_test vo_test"
+  all_tests+=" server_test agent_runtime_test server_runtime_test transport_test"
+  local tests targets
+  read -r -a tests <<<"${ASAN_TESTS:-$all_tests}"
   targets=("${tests[@]}")
-  case " $fuzz_steps " in *" transport "*) targets+=(transport_test) ;; esac
-  case " $fuzz_steps " in *" reassembly "*) targets+=(server_runtime_test) ;; esac
-  case " $fuzz_steps " in *" map-files "*) targets+=(server_test) ;; esac
+  fuzz_step transport && targets+=(transport_test)
+  fuzz_step reassembly && targets+=(server_runtime_test)
+  fuzz_step map-files && targets+=(server_test)
   configure "$B" -DCCM_SANITIZE=ON
   local start=$SECONDS
   cmake --build "$B" -j "$JOBS" --target "${targets[@]}"
@@ -136,18 +142,18 @@ asan() {
       --gtest_filter="$filter"
   done
   export CCM_FUZZ_INPUTS="$FUZZ_INPUTS"
-  case " $fuzz_steps " in *" transport "*)
+  if fuzz_step transport; then
     run asan-fuzz-transport "$B/tests/transport/transport_test" \
-      --gtest_filter='MsgConversionFuzz.*:AgentStatusFuzz.*:ServerMessageFuzz.*' ;;
-  esac
-  case " $fuzz_steps " in *" reassembly "*)
-    run asan-fuzz-reassembly "$B/tests/server_runtime/server_runtime_test" --gtest_filter='KeyframeReassemblyFuzz.*' ;;
-  esac
+      --gtest_filter='MsgConversionFuzz.*:AgentStatusFuzz.*:ServerMessageFuzz.*'
+  fi
+  if fuzz_step reassembly; then
+    run asan-fuzz-reassembly "$B/tests/server_runtime/server_runtime_test" --gtest_filter='KeyframeReassemblyFuzz.*'
+  fi
   # Any single allocation above 256 MB is a finding: a crafted size must not reach malloc.
-  case " $fuzz_steps " in *" map-files "*)
+  if fuzz_step map-files; then
     run asan-fuzz-map-files env "ASAN_OPTIONS=$ASAN_OPTIONS:max_allocation_size_mb=256:allocator_may_return_null=0" \
-    "$B/tests/slam_core/server/server_test" --gtest_filter='MapFileFuzz.*' ;;
-  esac
+      "$B/tests/slam_core/server/server_test" --gtest_filter='MapFileFuzz.*'
+  fi
   unset CCM_FUZZ_INPUTS
   grep -a -h -E '^[0-9]+ (messages|heartbeats|server messages|inputs|files)' "$LOG_DIR"/asan-fuzz-*.log || true
 }
