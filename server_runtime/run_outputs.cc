@@ -41,6 +41,7 @@ nlohmann::json MapsJson(const RunEvaluation& ev) {
     for (const AgentInMap& p : ms.agents) {
       agent_ids.push_back(static_cast<int>(p.id));
       nlohmann::json part = {{"name", p.name}, {"id", p.id}, {"keyframes", p.keyframes},
+                             {"full_keyframes", p.full_keyframe_s.size()}, {"full_keyframe_s", p.full_keyframe_s},
                              {"trajectory", p.keyframes ? MapTrajectoryFile(m.id, p.name) : ""}};
       if (ms.scored) {
         part["path_m"] = p.path_m;

@@ -63,6 +63,9 @@ struct AgentInMap {
   std::string name;
   AgentId id = 0;
   size_t keyframes = 0;       ///< registered and anchored keyframes of the agent in the map
+  /// Of those, the ones held in full (not anchored), as seconds after the agent's first
+  /// keyframe in the map: how the map grew over the flight (repeated passes).
+  std::vector<double> full_keyframe_s;
   double path_m = 0.0;        ///< ground-truth path between its first and last keyframe there
   ErrorStats ate_m;           ///< under the map's joint alignment
   /// Scale of this part's own Sim(3) alignment to the ground truth (metres per map unit);

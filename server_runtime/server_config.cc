@@ -12,6 +12,9 @@ std::string ServerConfig::Validate() const {
   if (max_agents < 1 || max_agents > 64) return "max_agents must be in 1..64 (see resource limits in the QoS file)";
   if (neighbourhood_k < 0 || neighbourhood_k > 16) return "neighbourhood_k must be in 0..16 (idl kMaxKeyframesPerServerMsg)";
   if (!(share_own_keyframes_after_s >= 0.0)) return "share_own_keyframes_after_s must be >= 0 (0: off)";
+  if (!(revisit_distance_ratio >= 0.0 && revisit_distance_ratio < 1.0)) {
+    return "revisit_distance_ratio must be in [0, 1) (0: off)";
+  }
   if (global_ba_max_free_keyframes < 0) return "global_ba_max_free_keyframes must be >= 0 (0: the whole map)";
   if (!(liveliness_timeout_s > 0.0)) return "liveliness_timeout_s must be > 0";
   if (!(agent_slot_release_s == 0.0 || agent_slot_release_s >= liveliness_timeout_s)) {
@@ -55,6 +58,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("ros2_max_cloud_points", &config->ros2_max_cloud_points);
   r.Get("ros2_domain", &config->ros2_domain);
   r.Get("share_own_keyframes_after_s", &config->share_own_keyframes_after_s);
+  r.Get("revisit_distance_ratio", &config->revisit_distance_ratio);
   r.Get("global_ba_max_free_keyframes", &config->global_ba_max_free_keyframes);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);
   r.Get("agent_slot_release_s", &config->agent_slot_release_s);

@@ -30,6 +30,7 @@ struct ServerConfig {
   int ros2_max_cloud_points = 50000;
   int ros2_domain = -1;              // the ROS 2 tools' domain; -1: the server's domain_id
   double share_own_keyframes_after_s = 0.0;  // > 0: also an agent's own keyframes this much older than its reference (experimental)
+  double revisit_distance_ratio = ServerOptions{}.redundancy.revisit_distance_ratio;  // a keyframe this close to one of an earlier pass leaves as its anchor (0: off)
   int global_ba_max_free_keyframes = ServerOptions{}.optimization.global_ba_max_free_keyframes;  // a loop or fusion in a bigger map: BA of its region (0: whole map)
   double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)
   double agent_slot_release_s = 600.0;  // silent this long: a new agent beyond max_agents takes its slot (0: never)

@@ -9,6 +9,7 @@ std::string NearDuplicateRule::Validate() const {
   if (!(distance_ratio >= 0.0 && distance_ratio < 1.0)) return "distance_ratio must be in [0, 1)";
   if (!(max_angle_deg >= 0.0 && max_angle_deg <= 180.0)) return "max_angle_deg must be in [0, 180]";
   if (!(min_covered >= 0.0 && min_covered <= 1.0)) return "min_covered must be in [0, 1]";
+  if (candidates == 0 || candidates < -1) return "candidates must be >= 1 (-1: all)";
   return "";
 }
 
@@ -24,7 +25,7 @@ KeyframeId NearDuplicateOf(const Map& map, const KeyFrame& kf, const NearDuplica
   const double depth = MedianSceneDepth(map, kf);
   if (depth <= 0.0) return KeyframeId::Invalid();
   KeyframeId dup;
-  for (const KeyframeId id : kf.BestCovisible(5)) {
+  for (const KeyframeId id : kf.BestCovisible(rule.candidates)) {
     if (base && !base(id)) continue;
     const auto n = map.keyframe(id);
     if (!n || n->bad()) continue;

@@ -16,6 +16,8 @@ struct NearDuplicateRule {
   double max_angle_deg = 10.0;
   /// ... and at least this share of `kf`'s points keep >= 2 other observers.
   double min_covered = 0.9;
+  /// How many of `kf`'s best covisible keyframes are looked at (-1: all of them).
+  int candidates = 5;
   bool enabled() const { return distance_ratio > 0.0; }
   /// Empty or what is wrong ("distance_ratio must be in [0, 1)").
   std::string Validate() const;
@@ -27,7 +29,7 @@ double OpticalAxisAngleDeg(const KeyFrame& a, const KeyFrame& b);
 /// Which keyframes count (null: all).
 using KeyframeFilter = std::function<bool(KeyframeId)>;
 
-/// The covisible keyframe (among the 5 best) that `kf` nearly duplicates under `rule`, or
+/// The covisible keyframe (among the rule's `candidates` best) that `kf` nearly duplicates under `rule`, or
 /// Invalid. `base` says which keyframes may be the duplicated one, `observer` which count as
 /// other observers of its points (the agent: keyframes the server has in full, and keyframes
 /// that will still be sent).

@@ -1,7 +1,11 @@
 #include "slam_core/server/redundancy.h"
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <shared_mutex>
+
+#include "slam_core/map/near_duplicate.h"
 
 namespace ccm {
 
@@ -25,7 +29,21 @@ bool RedundancyRemover::IsRedundant(const Map& map, const KeyFrame& kf) const {
     }
     redundant += others >= 3;
   }
-  return valid > 0 && redundant >= theta_ * valid;
+  return valid > 0 && redundant >= options_.theta * valid;
+}
+
+KeyframeId RedundancyRemover::RevisitOf(const Map& map, const KeyFrame& kf) const {
+  if (!(options_.revisit_distance_ratio > 0.0)) return KeyframeId::Invalid();
+  NearDuplicateRule rule;
+  rule.distance_ratio = options_.revisit_distance_ratio;
+  rule.max_angle_deg = options_.revisit_max_angle_deg;
+  rule.min_covered = options_.revisit_min_covered;
+  rule.candidates = -1;  // an earlier pass shares fewer points than the keyframes flown just before
+  const int64_t min_age_ns = std::llround(options_.revisit_min_age_s * 1e9);
+  return NearDuplicateOf(map, kf, rule, [&](KeyframeId id) {
+    const auto b = map.keyframe(id);
+    return b && b->stamp_ns() + min_age_ns <= kf.stamp_ns();
+  });
 }
 
 RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<KeyframeId>& protected_ids) {
@@ -34,18 +52,36 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
   const auto kfs = map.keyframes();
   if (kfs.size() < 3) return step;
   const KeyframeId oldest = kfs.front()->id();
+  // Where each agent is now (its handlers' newest keyframes): the revisit rule leaves the
+  // keyframes it flew in the last revisit_settle_s alone.
+  std::map<AgentId, int64_t> newest_ns;
+  for (const KeyframeId id : protected_ids) {
+    // The newest keyframe may have stayed only as an anchor (a near-duplicate at intake).
+    const auto k = map.keyframe(id);
+    const auto anchor = k ? std::nullopt : smap->Anchor(id);
+    if (k || anchor) newest_ns[id.agent()] = std::max(newest_ns[id.agent()], k ? k->stamp_ns() : anchor->stamp_ns);
+  }
+  const int64_t settle_ns = std::llround(options_.revisit_settle_s * 1e9);
+  const auto settled = [&](const KeyFrame& k) {
+    const auto it = newest_ns.find(k.id().agent());
+    return it == newest_ns.end() || k.stamp_ns() + settle_ns <= it->second;
+  };
   const auto pick = kfs[std::uniform_int_distribution<size_t>(0, kfs.size() - 1)(rng_)];
   step.checked = pick->id();
   for (const KeyframeId nid : pick->BestCovisible(-1)) {
     if (nid == oldest || std::find(protected_ids.begin(), protected_ids.end(), nid) != protected_ids.end()) continue;
     const auto n = map.keyframe(nid);
-    if (!n || n->bad() || !n->loop_edges().empty() || !IsRedundant(map, *n)) continue;
-    // Anchor to the strongest neighbour that stays.
+    if (!n || n->bad() || !n->loop_edges().empty()) continue;
     // Held, not looked up again: a handler's server mapping may erase it meanwhile.
     std::shared_ptr<KeyFrame> base;
-    for (const KeyframeId b : n->BestCovisible(-1)) {
-      if (b == nid) continue;
-      if ((base = map.keyframe(b))) break;
+    if (IsRedundant(map, *n)) {
+      // Anchor to the strongest neighbour that stays.
+      for (const KeyframeId b : n->BestCovisible(-1)) {
+        if (b == nid) continue;
+        if ((base = map.keyframe(b))) break;
+      }
+    } else if (const KeyframeId earlier = settled(*n) ? RevisitOf(map, *n) : KeyframeId::Invalid(); earlier.valid()) {
+      base = map.keyframe(earlier);  // the earlier pass's keyframe it duplicates
     }
     if (!base) continue;
     const auto info = smap->Info(nid);
@@ -59,7 +95,7 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
 }
 
 RedundancyStage::RedundancyStage(const RedundancyOptions& options, MapStack* stack)
-    : min_map_keyframes_(options.min_map_keyframes), stack_(stack), remover_(options.theta, options.seed) {}
+    : min_map_keyframes_(options.min_map_keyframes), stack_(stack), remover_(options) {}
 
 std::vector<KeyframeId> RedundancyStage::Step(const std::function<void(KeyframeId)>& on_removed) {
   auto maps = stack_->Maps();

@@ -5,6 +5,9 @@
 // pose relative to its strongest neighbour, so later data that refers to it still lands and
 // its agent's trajectory keeps it. Never removed: a map's oldest keyframe (gauge), keyframes
 // with loop edges, each handler's newest keyframe. Runs while no global BA is pending.
+// Optionally (RedundancyOptions::revisit_*) a neighbour that nearly duplicates a keyframe of
+// an earlier pass is redundant too, anchored to that keyframe: repeated passes then add
+// little to the map once a loop or fusion has joined them to the first.
 // RedundancyRemover is one step on one map (the caller holds its structure lock shared);
 // RedundancyStage is the back-end's stage around it (which map, which keyframes protected).
 #pragma once
@@ -26,15 +29,18 @@ struct RedundancyStep {
 
 class RedundancyRemover {
  public:
-  RedundancyRemover(double theta, uint64_t seed) : theta_(theta), rng_(seed) {}
+  explicit RedundancyRemover(const RedundancyOptions& options) : options_(options), rng_(options.seed) {}
 
   /// One step on `map`; `protected_ids` are never removed (the handlers' newest keyframes).
   RedundancyStep Step(ServerMap* map, const std::vector<KeyframeId>& protected_ids);
   /// Whether `kf` is redundant in `map` under theta (exposed for tests).
   bool IsRedundant(const Map& map, const KeyFrame& kf) const;
+  /// The keyframe of an earlier pass that `kf` nearly duplicates under the revisit rule, or
+  /// Invalid (also when the rule is off).
+  KeyframeId RevisitOf(const Map& map, const KeyFrame& kf) const;
 
  private:
-  double theta_;
+  RedundancyOptions options_;
   std::mt19937_64 rng_;
 };
 

@@ -61,6 +61,17 @@ std::string OptimizationJobOptions::Validate() const {
 std::string RedundancyOptions::Validate() const {
   if (!(theta > 0.0 && theta <= 1.0)) return "redundancy.theta must be in (0, 1]";
   if (min_map_keyframes < 3) return "redundancy.min_map_keyframes must be >= 3";
+  if (!(revisit_distance_ratio >= 0.0 && revisit_distance_ratio < 1.0)) {
+    return "redundancy.revisit_distance_ratio must be in [0, 1) (0: off)";
+  }
+  if (!(revisit_max_angle_deg > 0.0 && revisit_max_angle_deg <= 90.0)) {
+    return "redundancy.revisit_max_angle_deg must be in (0, 90]";
+  }
+  if (!(revisit_min_age_s >= 0.0)) return "redundancy.revisit_min_age_s must be >= 0";
+  if (!(revisit_settle_s >= 0.0)) return "redundancy.revisit_settle_s must be >= 0";
+  if (!(revisit_min_covered >= 0.0 && revisit_min_covered <= 1.0)) {
+    return "redundancy.revisit_min_covered must be in [0, 1]";
+  }
   return "";
 }
 

@@ -126,6 +126,20 @@ struct RedundancyOptions {
   double theta = 0.98;  ///< CCM-SLAM: neighbour redundant if >= theta of its points are seen by >= 3 others
   int min_map_keyframes = 20;
   std::uint64_t seed = 1;  ///< the random keyframe whose neighbours are checked
+  /// Repeated passes (the map should grow with the area flown, not the time): a neighbour
+  /// is also redundant when it nearly duplicates a covisible keyframe at least
+  /// revisit_min_age_s older (an earlier pass, any agent): closer than revisit_distance_ratio
+  /// of its median scene depth, optical axes within revisit_max_angle_deg, and at least
+  /// revisit_min_covered of its points keep >= 2 other observers. The intake's near-duplicate
+  /// rule cannot see these: a pass flown again arrives in its agent's drifted frame and only
+  /// meets the first pass once a loop or fusion joined them. Only keyframes that their agent
+  /// left behind revisit_settle_s ago or more: removing the newest ones of a pass while it is
+  /// flown cost accuracy (docs/server.md "Repeated passes"). 0: off.
+  double revisit_distance_ratio = 0.10;
+  double revisit_max_angle_deg = 15.0;
+  double revisit_min_age_s = 20.0;
+  double revisit_min_covered = 0.8;
+  double revisit_settle_s = 10.0;
   std::string Validate() const;
 };
 

@@ -179,6 +179,11 @@ int main(int argc, char** argv) {
                  "redundancy removal: a keyframe goes when this share of its points is seen by >= 3 others")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--revisit-ratio", replay.server.redundancy.revisit_distance_ratio,
+                 "redundancy: a keyframe this close to one of an earlier pass (share of its scene "
+                 "depth, 15 deg) leaves as its anchor (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.99));
   app.add_option("--share-own-after", replay.server.share_own_keyframes_after_s,
                  "map sharing also sends an agent its own keyframes this many seconds older than its reference "
                  "(0: other agents' only)")

@@ -58,6 +58,15 @@ TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
   std::ofstream(path) << "global_ba_max_free_keyframes: -1\n";
   EXPECT_FALSE(LoadServerConfig(path, &c, &error));
   EXPECT_NE(error.find("global_ba_max_free_keyframes"), std::string::npos) << error;
+  // Repeated passes: on by default, 0 turns it off, a ratio of 1 or more is refused.
+  EXPECT_GT(ServerConfig{}.revisit_distance_ratio, 0.0);
+  ServerConfig r;
+  std::ofstream(path) << "revisit_distance_ratio: 0\n";
+  ASSERT_TRUE(LoadServerConfig(path, &r, &error)) << error;
+  EXPECT_EQ(r.revisit_distance_ratio, 0.0);
+  std::ofstream(path) << "revisit_distance_ratio: 1.5\n";
+  EXPECT_FALSE(LoadServerConfig(path, &r, &error));
+  EXPECT_NE(error.find("revisit_distance_ratio"), std::string::npos) << error;
 }
 
 // The config the ccm-server package installs (its @CCM_CONFDIR@ filled in as at install time).

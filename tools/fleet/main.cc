@@ -87,6 +87,11 @@ rt::DdsOptionsGiven AddOptions(CLI::App* app, Args* a) {
                   "--offline: redundancy removal's threshold (share of a keyframe's points seen by >= 3 others)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  app->add_option("--revisit-ratio", a->offline_server.redundancy.revisit_distance_ratio,
+                  "--offline: redundancy: a keyframe this close to one of an earlier pass (share of its scene "
+                  "depth, 15 deg) leaves as its anchor (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.99));
   return rt::AddDdsOptions(app, &a->config, &a->session);
 }
 

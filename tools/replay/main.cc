@@ -170,6 +170,11 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
                  "new_keyframe_delay_s and map_sharing (the flags above win)")->check(CLI::ExistingFile);
   app->add_flag("--no-redundancy", a->no_redundancy, "keep every keyframe (no redundancy removal)");
   app->add_option("--theta", a->replay.server.redundancy.theta, "redundancy threshold")->capture_default_str();
+  app->add_option("--revisit-ratio", a->replay.server.redundancy.revisit_distance_ratio,
+                  "redundancy: a keyframe this close to one of an earlier pass (share of its scene "
+                  "depth, 15 deg) leaves as its anchor (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.99));
   app->add_option("--share-own-after", a->replay.server.share_own_keyframes_after_s,
                  "map sharing also sends an agent its own keyframes this many seconds older than its reference "
                  "(0: other agents' only; experimental)")

@@ -1,6 +1,7 @@
 // RedundancyStage on hand-built maps: which map it thins (large enough ones, in turn), what it
 // never removes (a map's oldest keyframe, a handler's newest), that removed keyframes stay
-// as anchors and are reported, and that keyframes whose points too few others see stay.
+// as anchors and are reported, and that keyframes whose points too few others see stay; and
+// the revisit rule: a second pass over the same place leaves as anchors of the first.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -61,6 +62,7 @@ std::shared_ptr<ServerMap> BuildMap(MapStack* stack, AgentId agent, int keyframe
 RedundancyOptions Options() {
   RedundancyOptions o;
   o.min_map_keyframes = 6;
+  o.revisit_distance_ratio = 0.0;  // CCM-SLAM's rule alone unless a test turns it on
   return o;
 }
 
@@ -97,6 +99,124 @@ TEST(RedundancyStage, KeepsKeyframesWhosePointsTooFewOthersSee) {
   for (int i = 0; i < 30; ++i) EXPECT_TRUE(stage.Step([&](KeyframeId) { ++reported; }).empty());
   EXPECT_EQ(reported, 0);
   EXPECT_EQ(map->map().num_keyframes(), 10u);
+}
+
+// Two passes of `agent` along x over the same points (z = 5 m), the second 40 s later and
+// `lateral` metres to the side. Point group k is seen by first-pass keyframes k and k + 1
+// and by second-pass keyframe k: two other observers for every point, so CCM-SLAM's rule
+// (three others) finds nothing redundant and only the revisit rule can.
+struct TwoPasses {
+  std::shared_ptr<ServerMap> map;
+  std::vector<KeyframeId> first, second;
+};
+TwoPasses BuildTwoPasses(MapStack* stack, AgentId agent, double lateral) {
+  constexpr int kFirst = 8, kPoints = 30;
+  const MapId segment = MapId::Make(agent, 1);
+  TwoPasses t;
+  t.map = stack->MapFor(agent, segment);
+  Map& map = t.map->map();
+  const auto camera = testing::TestCamera();
+  const auto pyramid = std::make_shared<ScalePyramid>(ScalePyramid::Make(8, 1.2));
+  std::vector<int> used;
+  const auto add = [&](int counter, int64_t stamp_ns, Eigen::Vector3d at) {
+    auto f = std::make_shared<FrameFeatures>();
+    for (int i = 0; i < 2 * kPoints; ++i) {
+      Keypoint kp;
+      kp.u = static_cast<float>(10 + (i * 37) % 700);
+      kp.v = static_cast<float>(10 + (i * 53) % 460);
+      f->keypoints.push_back(kp);
+      f->descriptors.push_back(OrbDescriptor{});
+    }
+    const KeyframeId id = KeyframeId::Make(agent, counter);
+    const SE3 pose(Eigen::Quaterniond::Identity(), at);
+    map.AddKeyframe(std::make_shared<KeyFrame>(id, stamp_ns, camera, f, pyramid, pose));
+    used.push_back(0);
+    return id;
+  };
+  for (int k = 0; k < kFirst; ++k) t.first.push_back(add(k + 1, int64_t{500000000} * (k + 1), {0.4 * k, 0, 0}));
+  for (int k = 0; k + 1 < kFirst; ++k) {
+    t.second.push_back(add(kFirst + k + 1, int64_t{40000000000} + int64_t{500000000} * (k + 1), {0.4 * k, lateral, 0}));
+  }
+  uint64_t point = 0;
+  for (int k = 0; k + 1 < kFirst; ++k) {
+    for (int p = 0; p < kPoints; ++p) {
+      const MapPointId mp = MapPointId::Make(agent, ++point);
+      const Eigen::Vector3d at(0.4 * k + 0.01 * p, 0.5, 5);
+      map.AddMapPoint(std::make_shared<MapPoint>(mp, at, t.first[k], OrbDescriptor{}));
+      for (const int idx : {k, k + 1, kFirst + k}) {
+        const KeyframeId kf = idx < kFirst ? t.first[idx] : t.second[idx - kFirst];
+        map.AddObservation(kf, used[idx]++, mp);
+      }
+    }
+  }
+  for (const auto& kf : map.keyframes()) map.UpdateConnections(kf->id());
+  stack->EditHandler(agent, segment, [&](AgentHandler* h) {
+    h->last_keyframe = t.second.back();
+    h->keyframes = static_cast<int>(t.first.size() + t.second.size());
+  });
+  return t;
+}
+
+std::vector<KeyframeId> StepMany(RedundancyStage* stage, int steps) {
+  std::vector<KeyframeId> removed;
+  for (int i = 0; i < steps; ++i) {
+    const auto r = stage->Step([](KeyframeId) {});
+    removed.insert(removed.end(), r.begin(), r.end());
+  }
+  return removed;
+}
+
+TEST(RedundancyStage, ASecondPassOverTheSamePlaceLeavesAsAnchorsOfTheFirst) {
+  RedundancyOptions options = Options();
+  options.revisit_distance_ratio = 0.2;  // 1 m at 5 m of scene depth
+  options.revisit_settle_s = 0.0;        // the whole second pass is behind the agent
+  MapStack stack{MapOptions{}};
+  const TwoPasses t = BuildTwoPasses(&stack, 1, 0.1);
+  RedundancyStage stage(options, &stack);
+  const auto removed = StepMany(&stage, 60);
+  const std::set<KeyframeId> gone(removed.begin(), removed.end());
+  for (const KeyframeId id : t.first) EXPECT_FALSE(gone.count(id)) << "the first pass stays: it is the older one";
+  EXPECT_FALSE(gone.count(t.second.back())) << "the handler's newest keyframe stays";
+  EXPECT_EQ(gone.size(), t.second.size() - 1) << "every other second-pass keyframe duplicates a first-pass one";
+  for (const KeyframeId id : removed) {
+    const auto anchor = t.map->Anchor(id);
+    ASSERT_TRUE(anchor.has_value());
+    const auto base = std::find(t.first.begin(), t.first.end(), anchor->base);
+    ASSERT_NE(base, t.first.end()) << "anchored to the first-pass keyframe it duplicates";
+    const size_t k = std::find(t.second.begin(), t.second.end(), id) - t.second.begin();
+    const size_t b = static_cast<size_t>(base - t.first.begin());
+    EXPECT_TRUE(b == k || b == k + 1)
+        << "the duplicated keyframe is one of the two that see the same points";
+    EXPECT_NEAR(t.map->PoseOf(id)->translation().y(), 0.1, 1e-9) << "its pose survives through the anchor";
+  }
+}
+
+TEST(RedundancyStage, ARevisitTooFarToTheSideJustFlownOrWithTheRuleOffStays) {
+  RedundancyOptions options = Options();
+  options.revisit_distance_ratio = 0.2;
+  options.revisit_settle_s = 0.0;
+  MapStack far_stack{MapOptions{}};
+  BuildTwoPasses(&far_stack, 1, 1.5);  // 1.5 m to the side: beyond 0.2 x 5 m
+  RedundancyStage far(options, &far_stack);
+  EXPECT_TRUE(StepMany(&far, 60).empty());
+
+  MapStack recent_stack{MapOptions{}};
+  const TwoPasses recent = BuildTwoPasses(&recent_stack, 1, 0.1);
+  options.revisit_settle_s = 2.0;  // the second pass's last 2 s are what the agent flies now
+  RedundancyStage settle(options, &recent_stack);
+  const auto removed = StepMany(&settle, 60);
+  const int64_t newest = recent.map->map().keyframe(recent.second.back())->stamp_ns();
+  EXPECT_EQ(removed.size(), 3u) << "of the six before the newest, the three at least 2 s behind it";
+  for (const KeyframeId id : removed) {
+    EXPECT_LE(recent.map->Anchor(id)->stamp_ns + int64_t{2000000000}, newest);
+  }
+
+  MapStack off_stack{MapOptions{}};
+  BuildTwoPasses(&off_stack, 1, 0.1);
+  options.revisit_distance_ratio = 0.0;  // CCM-SLAM's rule only
+  options.revisit_settle_s = 0.0;
+  RedundancyStage off(options, &off_stack);
+  EXPECT_TRUE(StepMany(&off, 60).empty());
 }
 
 }  // namespace

@@ -51,6 +51,8 @@ report::RunResult MadeUpResult() {
   r.agents.push_back(Agent("A", 1, 0.0, 30, kMap1, to_map1));
   r.agents.push_back(Agent("B", 2, 4.0, 30, kMap1, b_to_map1));
   r.agents.push_back(Agent("C", 3, 100.0, 20, kMap2, Sim3(2.0, Eigen::Quaterniond::Identity(), {0, 0, 0})));
+  auto& c = r.agents.back().server_keyframes;  // every second one of C's keyframes anchored
+  for (size_t k = 1; k < c.size(); k += 2) c[k].in_map = false;
   // Listed smaller map first: the report must still put the largest first.
   r.maps.push_back({kMap2, 10, 500, 0, {3}});
   r.maps.push_back({kMap1, 25, 900, 5, {1, 2}});
@@ -115,6 +117,11 @@ TEST(ReplayReport, WritesEveryMapsTrajectoriesSummaryAndPanels) {
   EXPECT_NEAR(s["maps"][0]["accuracy"]["scale_ratio"].get<double>(), 1.1, 1e-6);
   EXPECT_EQ(s["maps"][1]["agents"], nlohmann::json::array({3}));
   EXPECT_EQ(s["maps"][1]["parts"][0]["trajectory"], "map2_C_keyframes.tum");
+  EXPECT_EQ(s["maps"][1]["parts"][0]["keyframes"], 10) << "anchored keyframes are part of the trajectory";
+  EXPECT_EQ(s["maps"][1]["parts"][0]["full_keyframes"], 5);
+  EXPECT_EQ(s["maps"][1]["parts"][0]["full_keyframe_s"], nlohmann::json::array({0.0, 4.0, 8.0, 12.0, 16.0}))
+      << "the ones held in full, seconds after the agent's first keyframe in the map";
+  EXPECT_EQ(s["maps"][0]["parts"][0]["full_keyframes"], 15);
   EXPECT_LT(s["maps"][1]["accuracy"]["joint_ate_m"]["rmse"].get<double>(), 1e-6);
   EXPECT_TRUE(s.contains("place_recognition"));
   const cv::Mat top = cv::imread(dir + "/map_top.png");
