@@ -29,10 +29,10 @@ double OpticalAxisAngleDeg(const KeyFrame& a, const KeyFrame& b);
 /// Which keyframes count (null: all).
 using KeyframeFilter = std::function<bool(KeyframeId)>;
 
-/// The covisible keyframe (among the rule's `candidates` best) that `kf` nearly duplicates under `rule`, or
-/// Invalid. `base` says which keyframes may be the duplicated one, `observer` which count as
-/// other observers of its points (the agent: keyframes the server has in full, and keyframes
-/// that will still be sent).
+/// The covisible keyframe (among the rule's `candidates` best) that `kf` nearly duplicates
+/// under `rule`, or Invalid. `base` says which keyframes may be the duplicated one,
+/// `observer` which count as other observers of its points (the agent: keyframes the server
+/// has in full, and keyframes that will still be sent).
 KeyframeId NearDuplicateOf(const Map& map, const KeyFrame& kf, const NearDuplicateRule& rule,
                            const KeyframeFilter& base = nullptr, const KeyframeFilter& observer = nullptr);
 

@@ -5,9 +5,9 @@
 // pose relative to its strongest neighbour, so later data that refers to it still lands and
 // its agent's trajectory keeps it. Never removed: a map's oldest keyframe (gauge), keyframes
 // with loop edges, each handler's newest keyframe. Runs while no global BA is pending.
-// Optionally (RedundancyOptions::revisit_*) a neighbour that nearly duplicates a keyframe of
-// an earlier pass is redundant too, anchored to that keyframe: repeated passes then add
-// little to the map once a loop or fusion has joined them to the first.
+// Also (RedundancyOptions::revisit_*, on by default) a neighbour that nearly duplicates a
+// keyframe of an earlier pass is redundant, anchored to that keyframe: repeated passes then
+// add little to the map once a loop or fusion has joined them to the first.
 // RedundancyRemover is one step on one map (the caller holds its structure lock shared);
 // RedundancyStage is the back-end's stage around it (which map, which keyframes protected).
 #pragma once
