@@ -77,10 +77,14 @@ def main():
     while agent.poll() is None:
         try:
             a = scrape(agent_url)
-        except (OSError, ValueError) as e:  # the agent may have just closed its endpoint
-            if agent.poll() is not None:
-                break
-            fail("agent scrape failed: %s" % e, procs)
+        except (OSError, ValueError) as e:
+            # The agent closes its endpoint when its flight is done, a moment before it exits
+            # (its summary, the DDS teardown): only an agent that stays up without it fails.
+            try:
+                agent.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                fail("agent scrape failed and the agent did not exit: %s" % e, procs)
+            break
         s = scrape(server_url + "metrics")
         agent_scrapes += 1
         for key, v in a.items():
