@@ -35,10 +35,9 @@ MapScore ScoreMap(const RunResult& result, const MapSummary& summary) {
     part.name = a.name;
     part.id = a.id;
     part.keyframes = t.size();
-    for (const ServerKeyframePose& k : a.server_keyframes) {
-      if (k.map == summary.id && k.in_map && !t.empty()) {
-        part.full_keyframe_s.push_back(std::round((k.stamp_ns - t.front().stamp_ns) * 1e-8) / 10.0);
-      }
+    for (const ServerKeyframePose& k : a.server_keyframes) {  // t is not empty when one matches
+      if (k.map != summary.id || !k.in_map) continue;
+      part.full_keyframe_s.push_back(std::round((k.stamp_ns - t.front().stamp_ns) * 1e-8) / 10.0);
     }
     if (!a.ground_truth.empty() && !t.empty()) part.path_m = PathBetween(a.ground_truth, t.front().stamp_ns, t.back().stamp_ns);
     // Three keyframes at least: fewer cannot fix a Sim(3) of their own (the scale).
