@@ -126,7 +126,7 @@ GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
   g.autosave = app->add_option("--autosave", c.autosave_s, "autosave period [s] (0: only on exit)");
   app->add_option("--out", a->out_dir,
                   "on exit write trajectories (TUM), summary.json, server.json, map.ply, map_top.png");
-  app->add_flag("--no-final-ba", a->no_final_ba, "skip the global BA of every map on exit");
+  app->add_flag("--no-final-ba", a->no_final_ba, "skip the end-of-run work on exit: the sweep of repeated passes and the global BA of every map");
   g.ros2 = app->add_flag("--ros2", c.ros2_outputs,
                          "publish paths, poses, tf and the map for ROS 2 tools on the domain (docs/ros2.md)");
   app->add_option("--duration", a->duration_s, "stop after this many seconds (0: until Ctrl-C)");
@@ -340,7 +340,7 @@ void RunUntilStopped(const ServerArgs& a, const Services& s) {
   }
 }
 
-// Stops intake, finishes the queued work (and a final global BA of every map), saves the
+// Stops intake, finishes the queued work (and the end of the run: ScheduleFinish), saves the
 // map stack and writes the outputs. Returns the exit code.
 int Shutdown(const ServerArgs& a, Services* s, std::chrono::steady_clock::time_point start) {
   spdlog::info("stopping{}: finishing queued work", g_stop ? " on a signal" : "");
@@ -350,9 +350,7 @@ int Shutdown(const ServerArgs& a, Services* s, std::chrono::steady_clock::time_p
   ServerBackend& backend = *s->backend;
   backend.ProcessAllQueued();
   if (!a.no_final_ba) {
-    for (const auto& m : backend.Snapshot().Summaries()) {
-      if (m.keyframes >= 3) backend.ScheduleGlobalBa(m.id);
-    }
+    backend.ScheduleFinish();  // the revisit sweep and a global BA of every map
     backend.ProcessAllQueued();
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -69,9 +69,8 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
   const auto pick = kfs[std::uniform_int_distribution<size_t>(0, kfs.size() - 1)(rng_)];
   step.checked = pick->id();
   for (const KeyframeId nid : pick->BestCovisible(-1)) {
-    if (nid == oldest || std::find(protected_ids.begin(), protected_ids.end(), nid) != protected_ids.end()) continue;
     const auto n = map.keyframe(nid);
-    if (!n || n->bad() || !n->loop_edges().empty()) continue;
+    if (!n || !Removable(map, *n, oldest, protected_ids)) continue;
     // Held, not looked up again: a handler's server mapping may erase it meanwhile.
     std::shared_ptr<KeyFrame> base;
     if (IsRedundant(map, *n)) {
@@ -83,15 +82,43 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
     } else if (const KeyframeId earlier = settled(*n) ? RevisitOf(map, *n) : KeyframeId::Invalid(); earlier.valid()) {
       base = map.keyframe(earlier);  // the earlier pass's keyframe it duplicates
     }
-    if (!base) continue;
-    const auto info = smap->Info(nid);
-    smap->AddAnchor(nid, {base->id(), base->cam_from_world() * n->world_from_cam(), n->stamp_ns(),
-                          info ? info->segment : MapId()});
-    map.EraseKeyframe(nid);
-    smap->EraseInfo(nid);
-    step.removed.push_back(nid);
+    if (base) MakeAnchor(smap, *n, *base, &step);
   }
   return step;
+}
+
+RedundancyStep RedundancyRemover::SweepRevisits(ServerMap* smap, const std::vector<KeyframeId>& protected_ids) const {
+  RedundancyStep step;
+  Map& map = smap->map();
+  const auto kfs = map.keyframes();
+  if (kfs.size() < 3 || !(options_.revisit_distance_ratio > 0.0)) return step;
+  const KeyframeId oldest = kfs.front()->id();
+  // Oldest first by stamp: a third pass then finds the first one, the second already gone.
+  auto order = kfs;
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a->stamp_ns() < b->stamp_ns(); });
+  for (const auto& n : order) {
+    if (!Removable(map, *n, oldest, protected_ids)) continue;
+    const KeyframeId earlier = RevisitOf(map, *n);
+    if (!earlier.valid()) continue;
+    if (const auto base = map.keyframe(earlier)) MakeAnchor(smap, *n, *base, &step);
+  }
+  return step;
+}
+
+bool RedundancyRemover::Removable(const Map& map, const KeyFrame& kf, KeyframeId oldest,
+                                  const std::vector<KeyframeId>& protected_ids) {
+  if (kf.id() == oldest || kf.bad() || !kf.loop_edges().empty()) return false;
+  if (std::find(protected_ids.begin(), protected_ids.end(), kf.id()) != protected_ids.end()) return false;
+  return map.keyframe(kf.id()) != nullptr;  // not erased meanwhile
+}
+
+void RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
+  const KeyframeId id = kf.id();
+  const auto info = smap->Info(id);
+  smap->AddAnchor(id, {base.id(), base.cam_from_world() * kf.world_from_cam(), kf.stamp_ns(), info ? info->segment : MapId()});
+  smap->map().EraseKeyframe(id);
+  smap->EraseInfo(id);
+  step->removed.push_back(id);
 }
 
 RedundancyStage::RedundancyStage(const RedundancyOptions& options, MapStack* stack)
@@ -109,6 +136,18 @@ std::vector<KeyframeId> RedundancyStage::Step(const std::function<void(KeyframeI
   std::vector<KeyframeId> protect;
   for (const AgentHandler& h : stack_->HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
   const RedundancyStep step = remover_.Step(smap.get(), protect);
+  for (const KeyframeId id : step.removed) on_removed(id);
+  return step.removed;
+}
+
+std::vector<KeyframeId> RedundancyStage::SweepRevisits(MapId map, const std::function<void(KeyframeId)>& on_removed) {
+  const auto smap = stack_->GetMap(map);
+  if (!smap) return {};
+  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
+  if (smap->retired()) return {};
+  std::vector<KeyframeId> protect;
+  for (const AgentHandler& h : stack_->HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
+  const RedundancyStep step = remover_.SweepRevisits(smap.get(), protect);
   for (const KeyframeId id : step.removed) on_removed(id);
   return step.removed;
 }

@@ -38,8 +38,17 @@ class RedundancyRemover {
   /// The keyframe of an earlier pass that `kf` nearly duplicates under the revisit rule, or
   /// Invalid (also when the rule is off).
   KeyframeId RevisitOf(const Map& map, const KeyFrame& kf) const;
+  /// The end of a run (the agents fly no further, so revisit_settle_s holds nothing back):
+  /// every keyframe of `map`, oldest first, that nearly duplicates an earlier pass leaves as
+  /// its anchor, not only the neighbours of random picks. The CCM-SLAM rule is not swept.
+  RedundancyStep SweepRevisits(ServerMap* map, const std::vector<KeyframeId>& protected_ids) const;
 
  private:
+  /// Whether `kf` may leave at all (not the gauge, protected, bad or on a loop edge).
+  static bool Removable(const Map& map, const KeyFrame& kf, KeyframeId oldest, const std::vector<KeyframeId>& protected_ids);
+  /// Moves `kf` out of the map into an anchor on `base`.
+  static void MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
+
   RedundancyOptions options_;
   std::mt19937_64 rng_;
 };
@@ -55,6 +64,8 @@ class RedundancyStage {
   /// map's structure lock is still held, so the place-recognition database drops it before
   /// a loop or fusion could see the map without it.
   std::vector<KeyframeId> Step(const std::function<void(KeyframeId)>& on_removed);
+  /// RedundancyRemover::SweepRevisits on `map` (any size), handlers' newest keyframes protected.
+  std::vector<KeyframeId> SweepRevisits(MapId map, const std::function<void(KeyframeId)>& on_removed);
 
  private:
   const int min_map_keyframes_;

@@ -266,6 +266,19 @@ void ServerBackend::ScheduleGlobalBa(MapId map) {
   scheduler_.RequestGlobalBa(map);
 }
 
+void ServerBackend::ScheduleFinish() {
+  for (const MapSummary& m : Snapshot().Summaries()) {
+    if (m.keyframes < 3) continue;
+    {
+      std::lock_guard<std::mutex> lock(ba_regions_mutex_);
+      BaRegion& region = ba_regions_[m.id];
+      region.full = true;
+      region.sweep_revisits = true;
+    }
+    scheduler_.RequestGlobalBa(m.id);
+  }
+}
+
 bool ServerBackend::RunOptimizationOnce(std::chrono::milliseconds timeout) { return RunOptimization(timeout, true); }
 
 bool ServerBackend::RunOptimization(std::chrono::milliseconds timeout, bool respect_pause) {
@@ -287,6 +300,12 @@ void ServerBackend::RunGlobalBa(MapId map) {
     std::lock_guard<std::mutex> lock(ba_regions_mutex_);
     const auto it = ba_regions_.find(map);
     if (it != ba_regions_.end()) region = std::move(it->second), ba_regions_.erase(it);
+  }
+  if (region.sweep_revisits) {
+    const auto removed = redundancy_.SweepRevisits(map, [this](KeyframeId id) { matcher_.OnKeyframeErased(id); });
+    region.sweep_revisits = false;  // done, also if the BA below is retried
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.keyframes_removed += static_cast<int64_t>(removed.size());
   }
   if (const auto smap = stack_->GetMap(map)) {
     GlobalBaOptions o;

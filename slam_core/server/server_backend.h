@@ -86,8 +86,13 @@ class ServerBackend {
   void ProcessAllQueued();
   /// Blocks until no stage has queued or running work (threaded runs, end of a replay).
   void WaitUntilIdle();
-  /// Queues a global BA of `map` (e.g. a final one at the end of a replay).
+  /// Queues a global BA of the whole of `map` (one asked for by hand).
   void ScheduleGlobalBa(MapId map);
+  /// The end of a run (the agents fly no further): queues for every map of 3 keyframes or
+  /// more the revisit sweep (RedundancyStage::SweepRevisits: the keyframes of repeated passes
+  /// that revisit_settle_s held back leave as anchors) and then a global BA of the whole map,
+  /// both on the optimization thread. Drive it with ProcessAllQueued or WaitUntilIdle.
+  void ScheduleFinish();
 
   // Outgoing hooks.
   AgentAcks TakeAcks(AgentId agent);
@@ -131,9 +136,11 @@ class ServerBackend {
   // that asked for it (GlobalBaOptions::region_seeds); `full` after ScheduleGlobalBa.
   struct BaRegion {
     bool full = false;
+    bool sweep_revisits = false;  ///< the end of the run: RedundancyStage::SweepRevisits first
     std::vector<KeyframeId> seeds;
     void Add(const BaRegion& other) {
       full = full || other.full;
+      sweep_revisits = sweep_revisits || other.sweep_revisits;
       seeds.insert(seeds.end(), other.seeds.begin(), other.seeds.end());
     }
   };

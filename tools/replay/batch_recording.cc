@@ -344,7 +344,7 @@ RunResult PlayRecording(const Recording& rec, ServerBackend* backend, const Play
     }
     if (o.threaded) backend->WaitUntilIdle();
     if (o.final_global_ba) {
-      for (const MapSummary& m : backend->Snapshot().Summaries()) backend->ScheduleGlobalBa(m.id);
+      backend->ScheduleFinish();
       if (o.threaded) {
         backend->WaitUntilIdle();
       } else {

@@ -90,7 +90,7 @@ class Session {
     }
     backend_->ProcessAllQueued();
     if (o_.final_global_ba) {
-      for (const MapSummary& m : backend_->Snapshot().Summaries()) backend_->ScheduleGlobalBa(m.id);
+      backend_->ScheduleFinish();
       backend_->ProcessAllQueued();
     }
   }
@@ -113,7 +113,7 @@ class Session {
     for (auto& t : threads) t.join();
     backend_->WaitUntilIdle();
     if (o_.final_global_ba) {
-      for (const MapSummary& m : backend_->Snapshot().Summaries()) backend_->ScheduleGlobalBa(m.id);
+      backend_->ScheduleFinish();
       backend_->WaitUntilIdle();
     }
     runner.Stop();

@@ -46,7 +46,7 @@ struct ReplayOptions {
   bool map_sharing = true;       ///< server -> agent: k covisible keyframes each send period
   bool threaded = false;         ///< false: one thread, deterministic
   int64_t max_frames = -1;       ///< per agent (-1: all)
-  bool final_global_ba = true;   ///< one more global BA of every map at the end
+  bool final_global_ba = true;   ///< the end-of-run work (ServerBackend::ScheduleFinish)
   double progress_period_s = 2.0;
   /// Sees every batch just before it is submitted (a Recording, a test probe). Threaded
   /// replays call it from the agents' threads, one at a time.

@@ -219,5 +219,36 @@ TEST(RedundancyStage, ARevisitTooFarToTheSideJustFlownOrWithTheRuleOffStays) {
   EXPECT_TRUE(StepMany(&off, 60).empty());
 }
 
+TEST(RedundancyStage, TheEndOfRunSweepTakesTheRevisitsTheSettleHeldBackAndNothingElse) {
+  RedundancyOptions options = Options();
+  options.revisit_distance_ratio = 0.2;
+  options.revisit_settle_s = 2.0;
+  MapStack stack{MapOptions{}};
+  const TwoPasses t = BuildTwoPasses(&stack, 1, 0.1);
+  RedundancyStage stage(options, &stack);
+  const auto during = StepMany(&stage, 60);
+  ASSERT_EQ(during.size(), 3u) << "the settle holds the last 2 s of the second pass back";
+  int erased = 0;
+  const auto swept = stage.SweepRevisits(t.map->id(), [&](KeyframeId) { ++erased; });
+  EXPECT_EQ(swept.size(), 3u) << "the three the settle held, in one call";
+  EXPECT_EQ(erased, 3) << "each reported while the map is locked";
+  std::set<KeyframeId> gone(during.begin(), during.end());
+  gone.insert(swept.begin(), swept.end());
+  EXPECT_EQ(gone.size(), t.second.size() - 1) << "the whole second pass but the handler's newest keyframe";
+  EXPECT_FALSE(gone.count(t.second.back()));
+  for (const KeyframeId id : t.first) EXPECT_TRUE(t.map->map().keyframe(id)) << "the first pass stays";
+  for (const KeyframeId id : swept) {
+    const auto anchor = t.map->Anchor(id);
+    ASSERT_TRUE(anchor.has_value());
+    EXPECT_NE(std::find(t.first.begin(), t.first.end(), anchor->base), t.first.end());
+  }
+  EXPECT_TRUE(stage.SweepRevisits(t.map->id(), [](KeyframeId) {}).empty()) << "a second sweep finds nothing left";
+
+  MapStack far_stack{MapOptions{}};
+  const TwoPasses far = BuildTwoPasses(&far_stack, 1, 1.5);
+  RedundancyStage far_stage(options, &far_stack);
+  EXPECT_TRUE(far_stage.SweepRevisits(far.map->id(), [](KeyframeId) {}).empty()) << "1.5 m to the side is no revisit";
+}
+
 }  // namespace
 }  // namespace ccm
