@@ -128,6 +128,11 @@ nlohmann::json SummaryJson(const RunResult& result, const RunEvaluation& ev) {
                       {"keyframes", e.keyframes},
                       {"seconds", e.seconds},
                       {"detail", e.detail}});
+    if (e.query.valid()) {  // loops and fusions: which keyframes, and the verified similarity's scale
+      events.back()["query"] = {e.query.agent(), e.query.counter()};
+      events.back()["candidate"] = {e.candidate.agent(), e.candidate.counter()};
+      events.back()["query_from_candidate_scale"] = e.query_from_candidate.scale();
+    }
   }
   nlohmann::json gba = nlohmann::json::array();
   for (const auto& [kfs, s] : result.stats.global_ba_seconds) gba.push_back({{"keyframes", kfs}, {"seconds", s}});
