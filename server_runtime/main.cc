@@ -126,7 +126,8 @@ GivenOnCommandLine AddOptions(CLI::App* app, ServerArgs* a) {
   g.autosave = app->add_option("--autosave", c.autosave_s, "autosave period [s] (0: only on exit)");
   app->add_option("--out", a->out_dir,
                   "on exit write trajectories (TUM), summary.json, server.json, map.ply, map_top.png");
-  app->add_flag("--no-final-ba", a->no_final_ba, "skip the end-of-run work on exit: the sweep of repeated passes and the global BA of every map");
+  app->add_flag("--no-final-ba", a->no_final_ba,
+                "skip the end-of-run work on exit: the sweep of repeated passes and the global BA of every map");
   g.ros2 = app->add_flag("--ros2", c.ros2_outputs,
                          "publish paths, poses, tf and the map for ROS 2 tools on the domain (docs/ros2.md)");
   app->add_option("--duration", a->duration_s, "stop after this many seconds (0: until Ctrl-C)");

@@ -87,15 +87,17 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
   return step;
 }
 
-RedundancyStep RedundancyRemover::SweepRevisits(ServerMap* smap, const std::vector<KeyframeId>& protected_ids) const {
+RedundancyStep RedundancyRemover::SweepRevisits(ServerMap* smap,
+                                                const std::vector<KeyframeId>& protected_ids) const {
   RedundancyStep step;
   Map& map = smap->map();
   const auto kfs = map.keyframes();
-  if (kfs.size() < 3 || !(options_.revisit_distance_ratio > 0.0)) return step;
+  if (!options_.enabled || kfs.size() < 3 || !(options_.revisit_distance_ratio > 0.0)) return step;
   const KeyframeId oldest = kfs.front()->id();
   // Oldest first by stamp: a third pass then finds the first one, the second already gone.
   auto order = kfs;
-  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a->stamp_ns() < b->stamp_ns(); });
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto& a, const auto& b) { return a->stamp_ns() < b->stamp_ns(); });
   for (const auto& n : order) {
     if (!Removable(map, *n, oldest, protected_ids)) continue;
     const KeyframeId earlier = RevisitOf(map, *n);
@@ -115,7 +117,8 @@ bool RedundancyRemover::Removable(const Map& map, const KeyFrame& kf, KeyframeId
 void RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
   const KeyframeId id = kf.id();
   const auto info = smap->Info(id);
-  smap->AddAnchor(id, {base.id(), base.cam_from_world() * kf.world_from_cam(), kf.stamp_ns(), info ? info->segment : MapId()});
+  smap->AddAnchor(id,
+                  {base.id(), base.cam_from_world() * kf.world_from_cam(), kf.stamp_ns(), info ? info->segment : MapId()});
   smap->map().EraseKeyframe(id);
   smap->EraseInfo(id);
   step->removed.push_back(id);

@@ -40,12 +40,14 @@ class RedundancyRemover {
   KeyframeId RevisitOf(const Map& map, const KeyFrame& kf) const;
   /// The end of a run (the agents fly no further, so revisit_settle_s holds nothing back):
   /// every keyframe of `map`, oldest first, that nearly duplicates an earlier pass leaves as
-  /// its anchor, not only the neighbours of random picks. The CCM-SLAM rule is not swept.
+  /// its anchor, not only the neighbours of random picks. The CCM-SLAM rule is not swept;
+  /// nothing is when redundancy removal is off (`enabled`).
   RedundancyStep SweepRevisits(ServerMap* map, const std::vector<KeyframeId>& protected_ids) const;
 
  private:
   /// Whether `kf` may leave at all (not the gauge, protected, bad or on a loop edge).
-  static bool Removable(const Map& map, const KeyFrame& kf, KeyframeId oldest, const std::vector<KeyframeId>& protected_ids);
+  static bool Removable(const Map& map, const KeyFrame& kf, KeyframeId oldest,
+                        const std::vector<KeyframeId>& protected_ids);
   /// Moves `kf` out of the map into an anchor on `base`.
   static void MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
 

@@ -184,7 +184,8 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
                  "a loop or fusion in a map above this many keyframes gets a global BA of its region only (0: whole map)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  app->add_flag("--no-final-ba", a->no_final_ba, "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
+  app->add_flag("--no-final-ba", a->no_final_ba,
+                "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
   app->add_option("--load-map", a->load_map, "start from a saved map stack");
   app->add_option("--save-map", a->save_map, "save the map stack at the end");
   app->add_option("--record", a->record, "write every agent batch to this file (replayable without the VO)");

@@ -56,39 +56,43 @@ double LastBaSeconds(const report::RunResult& r) {
 }
 
 TEST(ServerRecording, KeyframeThinningKeepsAccuracy) {
-  // Three servers on the same input: every keyframe kept; CCM-SLAM's redundancy removal
-  // alone (theta = 0.98); the defaults (Forster et al.'s near-duplicate rule first, then
-  // theta = 0.98). Removed keyframes stay in the trajectories through their anchors, so the
-  // ATE is over all keyframes in every case.
+  // Three servers on the same input: every keyframe kept; the redundancy step's rules alone
+  // (CCM-SLAM's theta = 0.98, which finds nothing on this stream any more, and the revisit
+  // rule with its end-of-run sweep); the defaults (Forster et al.'s near-duplicate rule at
+  // intake first, then those). Removed keyframes stay in the trajectories through their
+  // anchors, so the ATE is over all keyframes in every case.
   ASSERT_FALSE(Hall3Recording().batches.empty());
   ServerOptions all;
   all.redundancy.enabled = false;
   all.mapping.duplicate_distance_ratio = 0.0;
-  ServerOptions theta_only;
-  theta_only.mapping.duplicate_distance_ratio = 0.0;
-  report::RunResult r_all, r_theta, r_default;
+  ServerOptions step_only;
+  step_only.mapping.duplicate_distance_ratio = 0.0;
+  report::RunResult r_all, r_step, r_default;
   const auto ev_all = Play(all, {}, &r_all);
-  const auto ev_theta = Play(theta_only, {}, &r_theta);
+  const auto ev_step = Play(step_only, {}, &r_step);
   const auto ev_default = Play(ServerOptions{}, {}, &r_default);
   const int64_t registered = Registered(r_default);
-  const double theta_removed = static_cast<double>(r_theta.stats.keyframes_removed) / Registered(r_theta);
+  const double step_removed = static_cast<double>(r_step.stats.keyframes_removed) / Registered(r_step);
   const double default_removed =
       static_cast<double>(Skipped(r_default) + r_default.stats.keyframes_removed) / registered;
   std::printf("  keep all: ATE %.4f m, last global BA %.1f s\n", ev_all.collaborative_ate_m.rmse, LastBaSeconds(r_all));
-  std::printf("  theta 0.98 only: removed %.1f%%, ATE %.4f m, last global BA %.1f s\n", 100 * theta_removed,
-              ev_theta.collaborative_ate_m.rmse, LastBaSeconds(r_theta));
+  std::printf("  redundancy step only: removed %.1f%%, ATE %.4f m, last global BA %.1f s\n", 100 * step_removed,
+              ev_step.collaborative_ate_m.rmse, LastBaSeconds(r_step));
   std::printf("  defaults: %lld near-duplicates + %lld redundant of %lld (%.1f%%), ATE %.4f m, last global BA %.1f s\n",
               static_cast<long long>(Skipped(r_default)), static_cast<long long>(r_default.stats.keyframes_removed),
               static_cast<long long>(registered), 100 * default_removed, ev_default.collaborative_ate_m.rmse,
               LastBaSeconds(r_default));
-  for (const auto* ev : {&ev_all, &ev_theta, &ev_default}) EXPECT_EQ(ev->maps, 1u);
+  for (const auto* ev : {&ev_all, &ev_step, &ev_default}) EXPECT_EQ(ev->maps, 1u);
   EXPECT_EQ(r_all.stats.keyframes_removed + Skipped(r_all), 0);
   EXPECT_GE(default_removed, 0.10);
   // Since map sharing works (2026-11-24) the agents make 2-3x fewer keyframes (565 reach the
   // server instead of 898) and removing a third of them costs accuracy: 8.3 vs 6.6 mm
   // (1.26x; within 10 % on the denser stream before). Both stay near 0.005 % of the path.
   EXPECT_LE(ev_default.collaborative_ate_m.rmse, 1.35 * ev_all.collaborative_ate_m.rmse);
-  EXPECT_LE(ev_theta.collaborative_ate_m.rmse, 1.10 * ev_all.collaborative_ate_m.rmse);
+  // The step alone removes 23 % at 1.14x (2026-12-01: 0.0080 vs 0.0070 m); before the
+  // end-of-run sweep it stayed within 1.10x.
+  EXPECT_GE(step_removed, 0.10);
+  EXPECT_LE(ev_step.collaborative_ate_m.rmse, 1.25 * ev_all.collaborative_ate_m.rmse);
   EXPECT_GT(ev_default.collaborative_ate_m.count, ev_all.collaborative_ate_m.count * 95 / 100)
       << "removed keyframes stay in the trajectories through their anchors";
 }

@@ -248,6 +248,13 @@ TEST(RedundancyStage, TheEndOfRunSweepTakesTheRevisitsTheSettleHeldBackAndNothin
   const TwoPasses far = BuildTwoPasses(&far_stack, 1, 1.5);
   RedundancyStage far_stage(options, &far_stack);
   EXPECT_TRUE(far_stage.SweepRevisits(far.map->id(), [](KeyframeId) {}).empty()) << "1.5 m to the side is no revisit";
+
+  RedundancyOptions disabled = options;
+  disabled.enabled = false;  // a run that keeps every keyframe keeps them at its end too
+  MapStack kept_stack{MapOptions{}};
+  const TwoPasses kept = BuildTwoPasses(&kept_stack, 1, 0.1);
+  RedundancyStage kept_stage(disabled, &kept_stack);
+  EXPECT_TRUE(kept_stage.SweepRevisits(kept.map->id(), [](KeyframeId) {}).empty());
 }
 
 }  // namespace
