@@ -117,8 +117,8 @@ bool RedundancyRemover::Removable(const Map& map, const KeyFrame& kf, KeyframeId
 void RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
   const KeyframeId id = kf.id();
   const auto info = smap->Info(id);
-  smap->AddAnchor(id,
-                  {base.id(), base.cam_from_world() * kf.world_from_cam(), kf.stamp_ns(), info ? info->segment : MapId()});
+  const MapId segment = info ? info->segment : MapId();
+  smap->AddAnchor(id, {base.id(), base.cam_from_world() * kf.world_from_cam(), kf.stamp_ns(), segment});
   smap->map().EraseKeyframe(id);
   smap->EraseInfo(id);
   step->removed.push_back(id);
@@ -133,24 +133,25 @@ std::vector<KeyframeId> RedundancyStage::Step(const std::function<void(KeyframeI
                             [&](const auto& m) { return static_cast<int>(m->map().num_keyframes()) < min_map_keyframes_; }),
              maps.end());
   if (maps.empty()) return {};
-  const auto smap = maps[next_++ % maps.size()];
-  std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
-  if (smap->retired()) return {};
-  std::vector<KeyframeId> protect;
-  for (const AgentHandler& h : stack_->HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
-  const RedundancyStep step = remover_.Step(smap.get(), protect);
-  for (const KeyframeId id : step.removed) on_removed(id);
-  return step.removed;
+  return OnMap(maps[next_++ % maps.size()], on_removed,
+               [this](ServerMap* m, const std::vector<KeyframeId>& protect) { return remover_.Step(m, protect); });
 }
 
 std::vector<KeyframeId> RedundancyStage::SweepRevisits(MapId map, const std::function<void(KeyframeId)>& on_removed) {
-  const auto smap = stack_->GetMap(map);
+  return OnMap(stack_->GetMap(map), on_removed, [this](ServerMap* m, const std::vector<KeyframeId>& protect) {
+    return remover_.SweepRevisits(m, protect);
+  });
+}
+
+std::vector<KeyframeId> RedundancyStage::OnMap(const std::shared_ptr<ServerMap>& smap,
+                                               const std::function<void(KeyframeId)>& on_removed,
+                                               const MapRun& run) {
   if (!smap) return {};
   std::shared_lock<WriterPreferringMutex> lock(smap->structure_mutex());
   if (smap->retired()) return {};
   std::vector<KeyframeId> protect;
   for (const AgentHandler& h : stack_->HandlersOfMap(smap->id())) protect.push_back(h.last_keyframe);
-  const RedundancyStep step = remover_.SweepRevisits(smap.get(), protect);
+  const RedundancyStep step = run(smap.get(), protect);
   for (const KeyframeId id : step.removed) on_removed(id);
   return step.removed;
 }

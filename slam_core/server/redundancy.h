@@ -13,6 +13,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -70,6 +71,12 @@ class RedundancyStage {
   std::vector<KeyframeId> SweepRevisits(MapId map, const std::function<void(KeyframeId)>& on_removed);
 
  private:
+  /// `run` on `smap` (if live) under its shared structure lock, its handlers' newest
+  /// keyframes protected; reports each removed keyframe to `on_removed` before unlocking.
+  using MapRun = std::function<RedundancyStep(ServerMap*, const std::vector<KeyframeId>& protected_ids)>;
+  std::vector<KeyframeId> OnMap(const std::shared_ptr<ServerMap>& smap,
+                                const std::function<void(KeyframeId)>& on_removed, const MapRun& run);
+
   const int min_map_keyframes_;
   MapStack* stack_;
   RedundancyRemover remover_;
