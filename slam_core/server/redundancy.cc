@@ -70,7 +70,7 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
   step.checked = pick->id();
   for (const KeyframeId nid : pick->BestCovisible(-1)) {
     const auto n = map.keyframe(nid);
-    if (!n || !Removable(map, *n, oldest, protected_ids)) continue;
+    if (!n || !Removable(*n, oldest, protected_ids)) continue;
     // Held, not looked up again: a handler's server mapping may erase it meanwhile.
     std::shared_ptr<KeyFrame> base;
     if (IsRedundant(map, *n)) {
@@ -99,7 +99,8 @@ RedundancyStep RedundancyRemover::SweepRevisits(ServerMap* smap,
   std::stable_sort(order.begin(), order.end(),
                    [](const auto& a, const auto& b) { return a->stamp_ns() < b->stamp_ns(); });
   for (const auto& n : order) {
-    if (!Removable(map, *n, oldest, protected_ids)) continue;
+    // Erased meanwhile (a handler's server mapping) or not removable.
+    if (!map.keyframe(n->id()) || !Removable(*n, oldest, protected_ids)) continue;
     const KeyframeId earlier = RevisitOf(map, *n);
     if (!earlier.valid()) continue;
     if (const auto base = map.keyframe(earlier)) MakeAnchor(smap, *n, *base, &step);
@@ -107,11 +108,9 @@ RedundancyStep RedundancyRemover::SweepRevisits(ServerMap* smap,
   return step;
 }
 
-bool RedundancyRemover::Removable(const Map& map, const KeyFrame& kf, KeyframeId oldest,
-                                  const std::vector<KeyframeId>& protected_ids) {
+bool RedundancyRemover::Removable(const KeyFrame& kf, KeyframeId oldest, const std::vector<KeyframeId>& protected_ids) {
   if (kf.id() == oldest || kf.bad() || !kf.loop_edges().empty()) return false;
-  if (std::find(protected_ids.begin(), protected_ids.end(), kf.id()) != protected_ids.end()) return false;
-  return map.keyframe(kf.id()) != nullptr;  // not erased meanwhile
+  return std::find(protected_ids.begin(), protected_ids.end(), kf.id()) == protected_ids.end();
 }
 
 void RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {

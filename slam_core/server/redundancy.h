@@ -47,8 +47,7 @@ class RedundancyRemover {
 
  private:
   /// Whether `kf` may leave at all (not the gauge, protected, bad or on a loop edge).
-  static bool Removable(const Map& map, const KeyFrame& kf, KeyframeId oldest,
-                        const std::vector<KeyframeId>& protected_ids);
+  static bool Removable(const KeyFrame& kf, KeyframeId oldest, const std::vector<KeyframeId>& protected_ids);
   /// Moves `kf` out of the map into an anchor on `base`.
   static void MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
 
