@@ -258,14 +258,6 @@ void ServerBackend::HandleDetection(const PlaceDetection& d) {
   AddEvent(std::move(*outcome.event));
 }
 
-void ServerBackend::ScheduleGlobalBa(MapId map) {
-  {
-    std::lock_guard<std::mutex> lock(ba_regions_mutex_);
-    ba_regions_[map].full = true;
-  }
-  scheduler_.RequestGlobalBa(map);
-}
-
 void ServerBackend::ScheduleFinish() {
   for (const MapSummary& m : Snapshot().Summaries()) {
     if (m.keyframes < 3) continue;

@@ -86,8 +86,6 @@ class ServerBackend {
   void ProcessAllQueued();
   /// Blocks until no stage has queued or running work (threaded runs, end of a replay).
   void WaitUntilIdle();
-  /// Queues a global BA of the whole of `map` (one asked for by hand).
-  void ScheduleGlobalBa(MapId map);
   /// The end of a run (the agents fly no further): queues for every map of 3 keyframes or
   /// more the revisit sweep (RedundancyStage::SweepRevisits: the keyframes of repeated passes
   /// that revisit_settle_s held back leave as anchors) and then a global BA of the whole map,
@@ -133,7 +131,7 @@ class ServerBackend {
   std::map<AgentId, AgentAcks> acks_;
 
   // Where the next global BA of a map looks first: the keyframes of the loops and fusions
-  // that asked for it (GlobalBaOptions::region_seeds); `full` after ScheduleGlobalBa.
+  // that asked for it (GlobalBaOptions::region_seeds); `full` after ScheduleFinish.
   struct BaRegion {
     bool full = false;
     bool sweep_revisits = false;  ///< the end of the run: RedundancyStage::SweepRevisits first
