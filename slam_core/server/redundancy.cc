@@ -32,12 +32,12 @@ bool RedundancyRemover::IsRedundant(const Map& map, const KeyFrame& kf) const {
   return valid > 0 && redundant >= options_.theta * valid;
 }
 
-KeyframeId RedundancyRemover::RevisitOf(const Map& map, const KeyFrame& kf) const {
+KeyframeId RedundancyRemover::RevisitOf(const Map& map, const KeyFrame& kf, double min_covered) const {
   if (!(options_.revisit_distance_ratio > 0.0)) return KeyframeId::Invalid();
   NearDuplicateRule rule;
   rule.distance_ratio = options_.revisit_distance_ratio;
   rule.max_angle_deg = options_.revisit_max_angle_deg;
-  rule.min_covered = options_.revisit_min_covered;
+  rule.min_covered = min_covered;
   rule.candidates = -1;  // an earlier pass shares fewer points than the keyframes flown just before
   const int64_t min_age_ns = std::llround(options_.revisit_min_age_s * 1e9);
   return NearDuplicateOf(map, kf, rule, [&](KeyframeId id) {
@@ -79,8 +79,11 @@ RedundancyStep RedundancyRemover::Step(ServerMap* smap, const std::vector<Keyfra
         if (b == nid) continue;
         if ((base = map.keyframe(b))) break;
       }
-    } else if (const KeyframeId earlier = settled(*n) ? RevisitOf(map, *n) : KeyframeId::Invalid(); earlier.valid()) {
-      base = map.keyframe(earlier);  // the earlier pass's keyframe it duplicates
+    } else if (settled(*n)) {
+      // The earlier pass's keyframe it duplicates, if any.
+      if (const KeyframeId earlier = RevisitOf(map, *n, options_.revisit_min_covered); earlier.valid()) {
+        base = map.keyframe(earlier);
+      }
     }
     if (base) MakeAnchor(smap, *n, *base, &step);
   }
@@ -101,7 +104,7 @@ RedundancyStep RedundancyRemover::SweepRevisits(ServerMap* smap,
   for (const auto& n : order) {
     // Erased meanwhile (a handler's server mapping) or not removable.
     if (!map.keyframe(n->id()) || !Removable(*n, oldest, protected_ids)) continue;
-    const KeyframeId earlier = RevisitOf(map, *n);
+    const KeyframeId earlier = RevisitOf(map, *n, options_.revisit_sweep_min_covered);
     if (!earlier.valid()) continue;
     if (const auto base = map.keyframe(earlier)) MakeAnchor(smap, *n, *base, &step);
   }

@@ -36,13 +36,14 @@ class RedundancyRemover {
   RedundancyStep Step(ServerMap* map, const std::vector<KeyframeId>& protected_ids);
   /// Whether `kf` is redundant in `map` under theta (exposed for tests).
   bool IsRedundant(const Map& map, const KeyFrame& kf) const;
-  /// The keyframe of an earlier pass that `kf` nearly duplicates under the revisit rule, or
-  /// Invalid (also when the rule is off).
-  KeyframeId RevisitOf(const Map& map, const KeyFrame& kf) const;
+  /// The keyframe of an earlier pass that `kf` nearly duplicates under the revisit rule,
+  /// with at least `min_covered` of its points keeping two other observers, or Invalid
+  /// (also when the rule is off).
+  KeyframeId RevisitOf(const Map& map, const KeyFrame& kf, double min_covered) const;
   /// The end of a run (the agents fly no further, so revisit_settle_s holds nothing back):
   /// every keyframe of `map`, oldest first, that nearly duplicates an earlier pass leaves as
-  /// its anchor, not only the neighbours of random picks. The CCM-SLAM rule is not swept;
-  /// nothing is when redundancy removal is off (`enabled`).
+  /// its anchor, not only the neighbours of random picks, under revisit_sweep_min_covered.
+  /// The CCM-SLAM rule is not swept; nothing is when redundancy removal is off (`enabled`).
   RedundancyStep SweepRevisits(ServerMap* map, const std::vector<KeyframeId>& protected_ids) const;
 
  private:

@@ -72,6 +72,9 @@ std::string RedundancyOptions::Validate() const {
   if (!(revisit_min_covered >= 0.0 && revisit_min_covered <= 1.0)) {
     return "redundancy.revisit_min_covered must be in [0, 1]";
   }
+  if (!(revisit_sweep_min_covered >= 0.0 && revisit_sweep_min_covered <= 1.0)) {
+    return "redundancy.revisit_sweep_min_covered must be in [0, 1]";
+  }
   return "";
 }
 

@@ -140,6 +140,11 @@ struct RedundancyOptions {
   double revisit_min_age_s = 20.0;
   double revisit_min_covered = 0.8;
   double revisit_settle_s = 10.0;
+  /// The end-of-run sweep's coverage (RedundancyRemover::SweepRevisits). Lower than the live
+  /// rule's: nobody flies on, and a pass's last keyframes hold the points its agent mapped
+  /// anew in its last seconds, each seen by one or two of them only (laps5: the fifth pass's
+  /// last 8 keyframes covered 74-79 %, docs/server.md "At the end of a run").
+  double revisit_sweep_min_covered = 0.7;
   std::string Validate() const;
 };
 

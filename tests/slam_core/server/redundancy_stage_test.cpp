@@ -104,12 +104,14 @@ TEST(RedundancyStage, KeepsKeyframesWhosePointsTooFewOthersSee) {
 // Two passes of `agent` along x over the same points (z = 5 m), the second 40 s later and
 // `lateral` metres to the side. Point group k is seen by first-pass keyframes k and k + 1
 // and by second-pass keyframe k: two other observers for every point, so CCM-SLAM's rule
-// (three others) finds nothing redundant and only the revisit rule can.
+// (three others) finds nothing redundant and only the revisit rule can. With `own_points`,
+// second-pass keyframes k and k + 1 also share that many points nobody else sees (what an
+// agent maps anew on a pass): an inner second-pass keyframe then covers 30 / (30 + 2 x own).
 struct TwoPasses {
   std::shared_ptr<ServerMap> map;
   std::vector<KeyframeId> first, second;
 };
-TwoPasses BuildTwoPasses(MapStack* stack, AgentId agent, double lateral) {
+TwoPasses BuildTwoPasses(MapStack* stack, AgentId agent, double lateral, int own_points = 0) {
   constexpr int kFirst = 8, kPoints = 30;
   const MapId segment = MapId::Make(agent, 1);
   TwoPasses t;
@@ -147,6 +149,14 @@ TwoPasses BuildTwoPasses(MapStack* stack, AgentId agent, double lateral) {
         const KeyframeId kf = idx < kFirst ? t.first[idx] : t.second[idx - kFirst];
         map.AddObservation(kf, used[idx]++, mp);
       }
+    }
+  }
+  for (size_t k = 0; k + 1 < t.second.size(); ++k) {
+    for (int p = 0; p < own_points; ++p) {
+      const MapPointId mp = MapPointId::Make(agent, ++point);
+      map.AddMapPoint(std::make_shared<MapPoint>(mp, Eigen::Vector3d(0.4 * k + 0.01 * p, 0.6, 5), t.second[k],
+                                                 OrbDescriptor{}));
+      for (const size_t idx : {k, k + 1}) map.AddObservation(t.second[idx], used[kFirst + idx]++, mp);
     }
   }
   for (const auto& kf : map.keyframes()) map.UpdateConnections(kf->id());
@@ -248,6 +258,24 @@ TEST(RedundancyStage, TheEndOfRunSweepTakesTheRevisitsTheSettleHeldBackAndNothin
   const TwoPasses far = BuildTwoPasses(&far_stack, 1, 1.5);
   RedundancyStage far_stage(options, &far_stack);
   EXPECT_TRUE(far_stage.SweepRevisits(far.map->id(), [](KeyframeId) {}).empty()) << "1.5 m to the side is no revisit";
+
+  // What the agent mapped anew on its second pass: 6 points shared with each neighbour
+  // (30 / 42 = 71 % covered) keep the live rule (80 %) from taking the inner keyframes but
+  // not the sweep (70 %); 8 (65 %) keep both from it.
+  for (const int own : {6, 8}) {
+    MapStack own_stack{MapOptions{}};
+    const TwoPasses o = BuildTwoPasses(&own_stack, 1, 0.1, own);
+    RedundancyOptions live = options;
+    live.revisit_settle_s = 0.0;
+    RedundancyStage own_stage(live, &own_stack);
+    const auto live_removed = StepMany(&own_stage, 60);
+    const auto own_swept = own_stage.SweepRevisits(o.map->id(), [](KeyframeId) {});
+    for (size_t k = 1; k + 1 < o.second.size(); ++k) {
+      const KeyframeId id = o.second[k];
+      EXPECT_EQ(std::count(live_removed.begin(), live_removed.end(), id), 0) << "own " << own << ", inner " << k;
+      EXPECT_EQ(std::count(own_swept.begin(), own_swept.end(), id), own == 6 ? 1 : 0) << "own " << own;
+    }
+  }
 
   RedundancyOptions disabled = options;
   disabled.enabled = false;  // a run that keeps every keyframe keeps them at its end too
