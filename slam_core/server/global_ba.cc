@@ -92,6 +92,32 @@ Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, const std::un
   return s;
 }
 
+// How much the BA stretched the map around keyframe `root` (1: not at all, or not known):
+// the summed distances to its best covisible keyframes after over before. An anchor's offset
+// from its base is in map units and must follow, or it lands off by (stretch - 1) x its
+// offset: the monocular scale of an agent's part settles in the BA after its loops and
+// fusions (hall3 demo: parts 2-4 % shorter, anchors 2 cm off their neighbours).
+double LocalStretch(const Map& map, KeyframeId root, const std::unordered_map<KeyframeId, size_t>& index,
+                    const std::vector<opt::PoseBlock>& before, const std::vector<opt::PoseBlock>& after) {
+  constexpr int kNeighbours = 10;
+  constexpr int kMinNeighbours = 3;
+  const auto kf = map.keyframe(root);
+  const auto r = index.find(root);
+  if (!kf || r == index.end()) return 1.0;
+  double sum_before = 0.0, sum_after = 0.0;
+  int used = 0;
+  for (const KeyframeId n : kf->BestCovisible(kNeighbours)) {
+    const auto i = index.find(n);
+    if (i == index.end()) continue;
+    sum_before += (before[i->second].world_from_cam.translation() - before[r->second].world_from_cam.translation()).norm();
+    sum_after += (after[i->second].world_from_cam.translation() - after[r->second].world_from_cam.translation()).norm();
+    ++used;
+  }
+  if (used < kMinNeighbours || !(sum_before > 0.0)) return 1.0;
+  const double stretch = sum_after / sum_before;
+  return stretch > 0.5 && stretch < 2.0 ? stretch : 1.0;  // beyond: a broken problem, not a stretch
+}
+
 }  // namespace
 
 opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options, const std::atomic<bool>* abort) {
@@ -240,6 +266,14 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     if (anc.valid()) mp->SetPosition(corrections.at(anc) * mp->position());
   }
   for (const auto& [kf, mp] : gross) map.EraseObservation(kf, mp);
+  std::unordered_map<KeyframeId, size_t> pose_index;
+  for (size_t k = 0; k < snap.kf_ids.size(); ++k) pose_index.emplace(snap.kf_ids[k], k);
+  std::unordered_map<KeyframeId, double> stretch;  // per anchor root, computed once
+  smap->RescaleAnchors([&](KeyframeId root) {
+    const auto it = stretch.find(root);
+    if (it != stretch.end()) return it->second;
+    return stretch[root] = LocalStretch(map, root, pose_index, poses_before, snap.problem.poses);
+  });
   smap->MarkSettled(settled);
   smap->BumpGeneration();
   r.write_back_s = SecondsSince(t0);

@@ -6,8 +6,36 @@
 #include <shared_mutex>
 
 #include "slam_core/map/near_duplicate.h"
+#include "slam_core/optimization/bundle_adjustment.h"
 
 namespace ccm {
+namespace {
+
+// The pose an anchor keeps: the keyframe's, refined against its points (pose only). A loop
+// closure or fusion moves a neighbourhood by one Sim(3) and fuses its points with the earlier
+// pass's; until the next global BA its keyframes sit a few centimetres off the points they now
+// share, and that is exactly when they first count as revisits. Anchored then, a keyframe
+// kept that offset for good (hall3 demo: 2-5 cm, once 22 cm, where an agent's second pass
+// began). nullopt: most links disagree with every pose (the keyframe stays for the BA).
+std::optional<SE3> AnchorPose(const Map& map, const KeyFrame& kf) {
+  constexpr int kMinLinks = 15;  // fewer: too few to judge, the pose as it is
+  std::vector<opt::PointObservation> obs;
+  const auto mps = kf.map_points();
+  for (size_t i = 0; i < mps.size(); ++i) {
+    if (!mps[i].valid()) continue;
+    const auto mp = map.map_point(mps[i]);
+    if (!mp || mp->bad()) continue;
+    const Keypoint& k = kf.features().keypoints[i];
+    obs.push_back({mp->position(), Eigen::Vector2d(k.u, k.v), kf.pyramid().scale[k.level]});
+  }
+  SE3 pose = kf.world_from_cam();
+  if (static_cast<int>(obs.size()) < kMinLinks) return pose;
+  const opt::OptimizationSummary s = opt::OptimizePose(kf.camera(), obs, &pose);
+  if (!s.usable || 2 * s.num_inliers < static_cast<int>(obs.size())) return std::nullopt;
+  return pose;
+}
+
+}  // namespace
 
 bool RedundancyRemover::IsRedundant(const Map& map, const KeyFrame& kf) const {
   int valid = 0, redundant = 0;
@@ -116,14 +144,20 @@ bool RedundancyRemover::Removable(const KeyFrame& kf, KeyframeId oldest, const s
   return std::find(protected_ids.begin(), protected_ids.end(), kf.id()) == protected_ids.end();
 }
 
-void RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
+bool RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
+  const auto pose = AnchorPose(smap->map(), kf);
+  if (!pose) {
+    ++step->refused;
+    return false;
+  }
   const KeyframeId id = kf.id();
   const auto info = smap->Info(id);
   const MapId segment = info ? info->segment : MapId();
-  smap->AddAnchor(id, {base.id(), base.cam_from_world() * kf.world_from_cam(), kf.stamp_ns(), segment});
+  smap->AddAnchor(id, {base.id(), base.cam_from_world() * *pose, kf.stamp_ns(), segment});
   smap->map().EraseKeyframe(id);
   smap->EraseInfo(id);
   step->removed.push_back(id);
+  return true;
 }
 
 RedundancyStage::RedundancyStage(const RedundancyOptions& options, MapStack* stack)

@@ -26,6 +26,7 @@ namespace ccm {
 struct RedundancyStep {
   KeyframeId checked;                 ///< the random keyframe whose neighbours were tested
   std::vector<KeyframeId> removed;
+  int refused = 0;  ///< candidates kept because most of their links disagree with every pose
 };
 
 class RedundancyRemover {
@@ -49,8 +50,9 @@ class RedundancyRemover {
  private:
   /// Whether `kf` may leave at all (not the gauge, protected, bad or on a loop edge).
   static bool Removable(const KeyFrame& kf, KeyframeId oldest, const std::vector<KeyframeId>& protected_ids);
-  /// Moves `kf` out of the map into an anchor on `base`.
-  static void MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
+  /// Moves `kf` out of the map into an anchor on `base`, at its pose refined against its
+  /// points (AnchorPose); false (and `kf` stays) if most of its links disagree with it.
+  static bool MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
 
   RedundancyOptions options_;
   std::mt19937_64 rng_;
