@@ -114,4 +114,19 @@ MapBaReport BundleAdjustKeyframes(Map* map, const std::vector<std::shared_ptr<Ke
   return report;
 }
 
+std::vector<opt::PointObservation> LinkedPointObservations(const Map& map, const KeyFrame& kf,
+                                                           std::vector<MapPointId>* points) {
+  std::vector<opt::PointObservation> obs;
+  const auto mps = kf.map_points();
+  for (size_t i = 0; i < mps.size(); ++i) {
+    if (!mps[i].valid()) continue;
+    const auto mp = map.map_point(mps[i]);
+    if (!mp || mp->bad()) continue;
+    const Keypoint& k = kf.features().keypoints[i];
+    obs.push_back({mp->position(), Eigen::Vector2d(k.u, k.v), kf.pyramid().scale[k.level]});
+    if (points) points->push_back(mps[i]);
+  }
+  return obs;
+}
+
 }  // namespace ccm

@@ -29,4 +29,10 @@ MapBaReport BundleAdjustKeyframes(Map* map, const std::vector<std::shared_ptr<Ke
                                   int max_fixed, const opt::BundleAdjusterOptions& options,
                                   bool remove_outliers, ChangeLog* changes, bool update_appearance = true);
 
+/// `kf`'s links to good map points as pose-only observations (point position, keypoint,
+/// sigma of its level), for opt::OptimizePose; `points` (if given) gets the linked point ids
+/// in the same order.
+std::vector<opt::PointObservation> LinkedPointObservations(const Map& map, const KeyFrame& kf,
+                                                           std::vector<MapPointId>* points = nullptr);
+
 }  // namespace ccm

@@ -6,7 +6,7 @@
 #include <shared_mutex>
 
 #include "slam_core/map/near_duplicate.h"
-#include "slam_core/optimization/bundle_adjustment.h"
+#include "slam_core/map_ops/map_bundle_adjustment.h"
 
 namespace ccm {
 namespace {
@@ -19,15 +19,7 @@ namespace {
 // began). nullopt: most links disagree with every pose (the keyframe stays for the BA).
 std::optional<SE3> AnchorPose(const Map& map, const KeyFrame& kf) {
   constexpr int kMinLinks = 15;  // fewer: too few to judge, the pose as it is
-  std::vector<opt::PointObservation> obs;
-  const auto mps = kf.map_points();
-  for (size_t i = 0; i < mps.size(); ++i) {
-    if (!mps[i].valid()) continue;
-    const auto mp = map.map_point(mps[i]);
-    if (!mp || mp->bad()) continue;
-    const Keypoint& k = kf.features().keypoints[i];
-    obs.push_back({mp->position(), Eigen::Vector2d(k.u, k.v), kf.pyramid().scale[k.level]});
-  }
+  const std::vector<opt::PointObservation> obs = LinkedPointObservations(map, kf);
   SE3 pose = kf.world_from_cam();
   if (static_cast<int>(obs.size()) < kMinLinks) return pose;
   const opt::OptimizationSummary s = opt::OptimizePose(kf.camera(), obs, &pose);
@@ -144,11 +136,11 @@ bool RedundancyRemover::Removable(const KeyFrame& kf, KeyframeId oldest, const s
   return std::find(protected_ids.begin(), protected_ids.end(), kf.id()) == protected_ids.end();
 }
 
-bool RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
+void RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step) {
   const auto pose = AnchorPose(smap->map(), kf);
   if (!pose) {
     ++step->refused;
-    return false;
+    return;
   }
   const KeyframeId id = kf.id();
   const auto info = smap->Info(id);
@@ -157,7 +149,6 @@ bool RedundancyRemover::MakeAnchor(ServerMap* smap, const KeyFrame& kf, const Ke
   smap->map().EraseKeyframe(id);
   smap->EraseInfo(id);
   step->removed.push_back(id);
-  return true;
 }
 
 RedundancyStage::RedundancyStage(const RedundancyOptions& options, MapStack* stack)

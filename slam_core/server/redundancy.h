@@ -51,8 +51,8 @@ class RedundancyRemover {
   /// Whether `kf` may leave at all (not the gauge, protected, bad or on a loop edge).
   static bool Removable(const KeyFrame& kf, KeyframeId oldest, const std::vector<KeyframeId>& protected_ids);
   /// Moves `kf` out of the map into an anchor on `base`, at its pose refined against its
-  /// points (AnchorPose); false (and `kf` stays) if most of its links disagree with it.
-  static bool MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
+  /// points (AnchorPose); `kf` stays (counted in step->refused) if most of its links disagree.
+  static void MakeAnchor(ServerMap* map, const KeyFrame& kf, const KeyFrame& base, RedundancyStep* step);
 
   RedundancyOptions options_;
   std::mt19937_64 rng_;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <unordered_set>
 
+#include "slam_core/map_ops/map_bundle_adjustment.h"
 #include "slam_core/optimization/bundle_adjustment.h"
 
 namespace ccm {
@@ -158,17 +159,8 @@ void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, S
 bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId continuity, int* inliers,
                                    bool* kept_on_track) {
   Map& map = smap->map();
-  std::vector<opt::PointObservation> obs;
-  std::vector<std::pair<int, MapPointId>> refs;
-  const auto mps = kf->map_points();
-  for (size_t i = 0; i < mps.size(); ++i) {
-    if (!mps[i].valid()) continue;
-    const auto mp = map.map_point(mps[i]);
-    if (!mp || mp->bad()) continue;
-    const Keypoint& k = kf->features().keypoints[i];
-    obs.push_back({mp->position(), Eigen::Vector2d(k.u, k.v), kf->pyramid().scale[k.level]});
-    refs.emplace_back(static_cast<int>(i), mps[i]);
-  }
+  std::vector<MapPointId> refs;
+  const std::vector<opt::PointObservation> obs = LinkedPointObservations(map, *kf, &refs);
   *inliers = 0;
   if (static_cast<int>(obs.size()) < options_.refine_min_inliers) return false;
   SE3 pose = kf->world_from_cam();
@@ -193,7 +185,7 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId con
     const std::unordered_set<MapPointId> continuing(seen_before.begin(), seen_before.end());
     std::vector<opt::PointObservation> tracked;
     for (size_t i = 0; i < refs.size(); ++i) {
-      if (continuing.count(refs[i].second)) tracked.push_back(obs[i]);
+      if (continuing.count(refs[i])) tracked.push_back(obs[i]);
     }
     SE3 continued = kf->world_from_cam();
     const opt::OptimizationSummary c = opt::OptimizePose(kf->camera(), tracked, &continued);
@@ -210,7 +202,7 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId con
   // Outlier links would pull later optimizations: drop them (the agent's link was wrong or
   // the point was fused differently on the server).
   for (size_t i = 0; i < refs.size(); ++i) {
-    if (!s.inlier[i]) map.EraseObservation(kf->id(), refs[i].second);
+    if (!s.inlier[i]) map.EraseObservation(kf->id(), refs[i]);
   }
   return true;
 }
