@@ -5,6 +5,10 @@
 // Receive-side injection covers both directions of a link as soon as both peers enable it
 // (data one way, ACKNACK/heartbeats the other way). Discovery traffic is affected too,
 // exactly as on a real lossy link.
+// Two more faults for the chaos tests (issue 28): a link cut (an outage window in which this
+// participant neither sends nor receives anything: one process is cut off from everyone) and
+// a bandwidth cap on what it receives (datagrams queue behind a link of that rate with a
+// bounded buffer, and are dropped when the buffer is full, as at a saturated access point).
 #pragma once
 
 #include <fastdds/rtps/transport/ChainingTransport.h>
@@ -29,11 +33,18 @@ struct FaultOptions {
   double delay_ms = 0.0;          // one-way delay added to every delivered datagram
   double jitter_ms = 0.0;         // uniform extra delay in [0, jitter_ms]
   std::uint64_t seed = 1;         // random seed (fault pattern reproducible per process)
+  double outage_at_s = 0.0;       // link cut: starts this long after the participant was created
+  double outage_s = 0.0;          // ... and lasts this long: nothing sent or received (0: no cut)
+  double rate_kb_s = 0.0;         // cap on received bytes [kB/s] (0: none)
+  double queue_ms = 500.0;        // the capped link's buffer: a datagram that would wait longer is dropped
 
-  bool enabled() const { return drop_probability > 0.0 || delay_ms > 0.0 || jitter_ms > 0.0; }
+  bool enabled() const {
+    return drop_probability > 0.0 || delay_ms > 0.0 || jitter_ms > 0.0 || outage_s > 0.0 || rate_kb_s > 0.0;
+  }
   /// Empty string when valid, otherwise what is wrong.
   std::string Validate() const;
-  /// Reads CCM_FAULT_DROP, CCM_FAULT_DELAY_MS, CCM_FAULT_JITTER_MS, CCM_FAULT_SEED.
+  /// Reads CCM_FAULT_DROP, CCM_FAULT_DELAY_MS, CCM_FAULT_JITTER_MS, CCM_FAULT_SEED,
+  /// CCM_FAULT_OUTAGE_AT_S, CCM_FAULT_OUTAGE_S, CCM_FAULT_RATE_KB_S, CCM_FAULT_QUEUE_MS.
   /// Unset variables keep the defaults; malformed values yield an error message.
   static std::optional<FaultOptions> FromEnvironment(std::string* error);
   std::string ToString() const;
@@ -46,6 +57,8 @@ struct FaultCounters {
   std::atomic<std::uint64_t> datagrams_received{0};
   std::atomic<std::uint64_t> datagrams_dropped{0};
   std::atomic<std::uint64_t> bytes_received{0};
+  std::atomic<std::uint64_t> datagrams_cut{0};     // received or sent during the link cut, never delivered
+  std::atomic<std::uint64_t> datagrams_over_cap{0};  // received while the capped link's buffer was full
   /// Optional probe (set before the participant exists, never changed after): received
   /// datagrams that contain this byte sequence are counted in watch_hits. Tests use it to
   /// check whether a keyframe's bytes are readable on the wire (docs/security.md).
@@ -99,10 +112,13 @@ class FaultInjectionTransport : public eprosima::fastdds::rtps::ChainingTranspor
   };
 
   void DeliveryLoop();
+  bool InOutage(std::chrono::steady_clock::time_point now) const;
 
   FaultInjectionTransportDescriptor descriptor_;
-  std::mutex rng_mutex_;
+  const std::chrono::steady_clock::time_point created_ = std::chrono::steady_clock::now();
+  std::mutex rng_mutex_;  // guards rng_ and link_free_; leaf
   std::mt19937_64 rng_;
+  std::chrono::steady_clock::time_point link_free_{};  // when the capped link has sent all it queued
   // Lock order: deliver_mutex_ before queue_mutex_ (CloseInputChannel takes both).
   std::mutex deliver_mutex_;
   std::mutex queue_mutex_;

@@ -35,6 +35,11 @@ DdsOptionsGiven AddDdsOptions(CLI::App* app, Config* c, SessionOptions* session)
                                   "participant profile in the QoS file (discovery server: ccm_participant_ds_client)");
   app->add_option("--drop", session->fault.drop_probability, "fault injection: drop probability of received datagrams");
   app->add_option("--delay-ms", session->fault.delay_ms, "fault injection: delay of received datagrams [ms]");
+  app->add_option("--cut-at", session->fault.outage_at_s,
+                  "fault injection: cut this participant's link this many seconds after it started (with --cut-s)");
+  app->add_option("--cut-s", session->fault.outage_s, "fault injection: length of the link cut [s]: nothing in or out");
+  app->add_option("--rate-cap", session->fault.rate_kb_s,
+                  "fault injection: cap on received bytes [kB/s]; a full 0.5 s buffer drops (CCM_FAULT_QUEUE_MS)");
   return g;
 }
 
@@ -54,7 +59,7 @@ void KeepGivenDdsOptions(const DdsOptionsGiven& g, const Config& cli, Config* me
 /// (CCM_FAULT_*) unless the command line set it.
 template <class Config>
 bool ResolveSession(const Config& c, SessionOptions* session, std::string* error) {
-  if (session->fault.drop_probability == 0.0 && session->fault.delay_ms == 0.0) {
+  if (!session->fault.enabled()) {
     auto env = FaultOptions::FromEnvironment(error);
     if (!env) return false;
     session->fault = *env;

@@ -63,7 +63,9 @@ bool SaveMapStack(const ccm::ServerBackend& backend, const std::string& path, co
   std::string error;
   const ccm::MapStackSnapshot snapshot = backend.Snapshot();
   if (!ccm::MapPersistence::Save(snapshot, path, &error)) {
-    spdlog::error("{}: saving the map stack failed: {}", why, error);
+    spdlog::error("{}: saving the map stack failed: {} (the last complete file stays; agents keep what it lacks "
+                  "until a save succeeds)",
+                  why, error);
     return false;
   }
   size_t kfs = 0;
@@ -242,6 +244,9 @@ bool StartServices(const ServerArgs& a, Services* s, std::string* error) {
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
+  // A file-size limit (ulimit -f, a quota) must fail the save, not kill the ground station:
+  // the write then returns EFBIG, autosave logs it and tries again at its next period.
+  std::signal(SIGXFSZ, SIG_IGN);
   if (a.session.fault.enabled()) spdlog::warn("fault injection active: {}", a.session.fault.ToString());
   spdlog::info("server up on domain {} (QoS {}, vocabulary {}: {} words, max {} agents, map sharing k = {})",
                a.config.domain_id, s->comm->session().options().qos_file, a.config.vocabulary,

@@ -49,6 +49,7 @@ class ChildProcess {
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   bool started() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
   bool running() const { return pid_ > 0 && !exited_; }
   bool Signal(int sig) const { return running() && kill(pid_, sig) == 0; }
   /// Exit code once it exited; -1 if a signal ended it, -2 if still running at the timeout.

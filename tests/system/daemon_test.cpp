@@ -13,6 +13,8 @@
 #include <fstream>
 
 #include "tests/system/child_process.h"
+#include "tests/system/ctl_status.h"
+#include "tests/system/process_json.h"
 #include "tests/transport/subprocess.h"
 
 namespace ccm {
@@ -22,47 +24,9 @@ using testing::ChildProcess;
 
 constexpr int kDomain = 187;
 
-std::string Qos() { return std::string(CCM_QOS_DIR) + "/wifi.xml"; }
-
-nlohmann::json CtlStatus(const std::string& dir, int domain = kDomain) {
-  const auto r = testing::RunConcurrently(
-      {{CCM_CTL, "status", "--json", "--domain", std::to_string(domain), "--qos", Qos(), "--timeout", "4"}},
-      dir + "/ctl", std::chrono::seconds(20));
-  if (r[0].exit_code != 0) return nlohmann::json();
-  return nlohmann::json::parse(r[0].output.substr(r[0].output.find('{')), nullptr, false);
-}
-
-const nlohmann::json* Agent(const nlohmann::json& status, int id) {
-  if (!status.is_object()) return nullptr;
-  for (const auto& a : status["agents"]) {
-    if (a["agent_id"].get<int>() == id) return &a;
-  }
-  return nullptr;
-}
-
-size_t MapKeyframes(const nlohmann::json& status) {
-  size_t n = 0;
-  for (const auto& m : status["maps"]) n += m["keyframes"].get<size_t>();
-  return n;
-}
-
-/// Polls ccm_ctl status until `done` holds (returns that status) or the deadline passes.
-template <typename Pred>
-nlohmann::json WaitForStatus(const std::string& dir, std::chrono::seconds timeout, Pred done, int domain = kDomain) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  nlohmann::json last;
-  while (std::chrono::steady_clock::now() < deadline) {
-    last = CtlStatus(dir, domain);
-    if (last.is_object() && done(last)) return last;
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  }
-  return last;
-}
-
-/// The JSON summary ccm_agent prints as its last line (not an object if it is missing).
-nlohmann::json AgentSummary(const std::string& agent_output) {
-  return nlohmann::json::parse(agent_output.substr(agent_output.rfind("\n{") + 1), nullptr, false);
-}
+using testing::StatusAgent;
+using testing::StatusMapKeyframes;
+std::string Qos() { return testing::WifiQos(); }
 
 std::vector<std::string> ServerCommand(const std::string& map_file, int domain = kDomain) {
   return {CCM_SERVER, "--qos", Qos(), "--domain", std::to_string(domain), "--map-file", map_file,
@@ -90,11 +54,11 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
   ASSERT_TRUE(server->started() && agent.started());
 
   // First life: the agent's keyframes arrive, the status shows them, an autosave happens.
-  const nlohmann::json before = WaitForStatus(dir, std::chrono::seconds(40), [](const nlohmann::json& s) {
-    const auto* a = Agent(s, 1);
+  const nlohmann::json before = testing::WaitForCtlStatus(dir, std::chrono::seconds(40), [](const nlohmann::json& s) {
+    const auto* a = StatusAgent(s, 1);
     return a != nullptr && (*a)["keyframes_registered"].get<int>() >= 15 && s["last_save_s"].get<double>() >= 0.0;
-  });
-  const auto* a1 = Agent(before, 1);
+  }, kDomain);
+  const auto* a1 = StatusAgent(before, 1);
   ASSERT_NE(a1, nullptr) << "no status with agent 1:\n" << before.dump(1) << "\n" << server->Output();
   EXPECT_TRUE((*a1)["alive"].get<bool>());
   EXPECT_GE((*a1)["keyframes_registered"].get<int>(), 15) << before.dump(1);
@@ -122,22 +86,22 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
 
   // Second life on the same file, the agent still flying.
   ChildProcess server2(ServerCommand(map_file), dir + "/server2.log");
-  const nlohmann::json after = WaitForStatus(dir, std::chrono::seconds(40), [](const nlohmann::json& s) {
-    const auto* a = Agent(s, 1);
+  const nlohmann::json after = testing::WaitForCtlStatus(dir, std::chrono::seconds(40), [](const nlohmann::json& s) {
+    const auto* a = StatusAgent(s, 1);
     return a != nullptr && (*a)["alive"].get<bool>() && (*a)["keyframes_registered"].get<int>() >= 3;
-  });
+  }, kDomain);
   const std::string loaded_line = "loaded " + map_file;
   EXPECT_NE(server2.Output().find(loaded_line), std::string::npos) << server2.Output();
-  const auto* a2 = Agent(after, 1);
+  const auto* a2 = StatusAgent(after, 1);
   ASSERT_NE(a2, nullptr) << "agent 1 did not reconnect:\n" << after.dump(1) << "\n" << server2.Output();
   EXPECT_GE((*a2)["keyframes_registered"].get<int>(), 3);
   // The reloaded keyframes are all there (plus the new ones).
-  EXPECT_GE(MapKeyframes(after), MapKeyframes(before)) << before.dump(1) << after.dump(1);
+  EXPECT_GE(StatusMapKeyframes(after), StatusMapKeyframes(before)) << before.dump(1) << after.dump(1);
 
   // The agent finishes its flight; the new server acknowledged everything it sent.
   EXPECT_EQ(agent.Wait(std::chrono::seconds(90)), 0) << agent.Output();
   const std::string agent_out = agent.Output();
-  const auto agent_json = AgentSummary(agent_out);
+  const auto agent_json = testing::LastJsonLine(agent_out);
   ASSERT_TRUE(agent_json.is_object()) << agent_out;
   EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
   ASSERT_TRUE(server2.Signal(SIGINT));
@@ -148,8 +112,8 @@ TEST(Daemon, SigtermSavesTheMapAndARestartedServerReloadsItAndTheAgentReconnects
   EXPECT_NE(out2.find("] [info] "), std::string::npos) << out2;
   EXPECT_EQ(out2.find('\x1b'), std::string::npos) << "colour codes in a log file:\n" << out2;
   EXPECT_EQ(out1.find('\x1b'), std::string::npos) << "colour codes in the journal:\n" << out1;
-  std::cout << "first server: " << MapKeyframes(before) << " KFs in status before SIGTERM; restarted server: "
-            << MapKeyframes(after) << " KFs once the agent was back; agent acked "
+  std::cout << "first server: " << StatusMapKeyframes(before) << " KFs in status before SIGTERM; restarted server: "
+            << StatusMapKeyframes(after) << " KFs once the agent was back; agent acked "
             << agent_json["link"]["kfs_acked"] << " KFs\n";
 }
 
@@ -170,14 +134,14 @@ TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) 
                       "--log-level", "warn"},
                      dir + "/agent.log");
   ASSERT_TRUE(server->started() && agent.started());
-  const nlohmann::json before = WaitForStatus(
+  const nlohmann::json before = testing::WaitForCtlStatus(
       dir, std::chrono::seconds(40),
       [](const nlohmann::json& s) {
-        const auto* a = Agent(s, 1);
+        const auto* a = StatusAgent(s, 1);
         return a != nullptr && (*a)["keyframes_registered"].get<int>() >= 15 && s["last_save_s"].get<double>() >= 3.0;
       },
       kKillDomain);
-  ASSERT_NE(Agent(before, 1), nullptr) << before.dump(1) << "\n" << server->Output();
+  ASSERT_NE(StatusAgent(before, 1), nullptr) << before.dump(1) << "\n" << server->Output();
   ASSERT_TRUE(server->Signal(SIGKILL));
   server->Wait(std::chrono::seconds(10));
   const std::string out1 = server->Output();
@@ -186,20 +150,20 @@ TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) 
   EXPECT_TRUE(std::filesystem::exists(map_file + ".prev")) << "two autosaves keep a previous generation\n" << out1;
 
   ChildProcess server2(ServerCommand(map_file, kKillDomain), dir + "/server2.log");
-  const nlohmann::json after = WaitForStatus(
+  const nlohmann::json after = testing::WaitForCtlStatus(
       dir, std::chrono::seconds(40),
       [](const nlohmann::json& s) {
-        const auto* a = Agent(s, 1);
+        const auto* a = StatusAgent(s, 1);
         return a != nullptr && (*a)["alive"].get<bool>() && (*a)["keyframes_registered"].get<int>() >= 3;
       },
       kKillDomain);
   EXPECT_NE(server2.Output().find("loaded " + map_file), std::string::npos) << server2.Output();
   EXPECT_EQ(server2.Output().find("previous generation"), std::string::npos) << "the newest file must load\n"
                                                                              << server2.Output();
-  ASSERT_NE(Agent(after, 1), nullptr) << after.dump(1) << "\n" << server2.Output();
+  ASSERT_NE(StatusAgent(after, 1), nullptr) << after.dump(1) << "\n" << server2.Output();
   EXPECT_EQ(agent.Wait(std::chrono::seconds(90)), 0) << agent.Output();
   const std::string agent_out = agent.Output();
-  const auto agent_json = AgentSummary(agent_out);
+  const auto agent_json = testing::LastJsonLine(agent_out);
   ASSERT_TRUE(agent_json.is_object()) << agent_out;
   EXPECT_EQ(agent_json["link"]["kfs_unacked"].get<int>(), 0) << agent_out;
   EXPECT_EQ(agent_json["keyframes_lost"].get<int>(), 0) << agent_out;
@@ -207,8 +171,8 @@ TEST(Daemon, SigkillMidFlightTheRestartLoadsTheLastAutosaveAndNoKeyframeIsLost) 
   EXPECT_GT(agent_json["link"]["kfs_persisted"].get<int>(), 0) << agent_out;
   ASSERT_TRUE(server2.Signal(SIGTERM));
   EXPECT_EQ(server2.Wait(std::chrono::seconds(60)), 0) << server2.Output();
-  std::cout << "killed with " << MapKeyframes(before) << " KFs in status (last autosave at "
-            << before["last_save_s"] << " s); the restarted server had " << MapKeyframes(after)
+  std::cout << "killed with " << StatusMapKeyframes(before) << " KFs in status (last autosave at "
+            << before["last_save_s"] << " s); the restarted server had " << StatusMapKeyframes(after)
             << " KFs once the agent was back; agent acked " << agent_json["link"]["kfs_acked"]
             << " KFs, resent " << agent_json["link"]["kfs_resent_after_restart"] << " after the restart\n";
 }
