@@ -227,6 +227,8 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     return r;
   }
   r.final_rmse_px = opt::ReprojectionRmsePx(snap.problem);
+  r.final_inlier_rmse_px = opt::ReprojectionRmsePx(snap.problem, &s.inlier);
+  r.final_inliers = s.num_inliers;
 
   t0 = Clock::now();
   std::unique_lock<WriterPreferringMutex> lock(smap->structure_mutex());

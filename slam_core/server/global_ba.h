@@ -56,7 +56,9 @@ struct GlobalBaReport {
   int keyframes_added_meanwhile = 0;
   int observations_dropped = 0;  ///< gross outliers left out
   int iterations = 0;
-  double initial_rmse_px = 0.0, final_rmse_px = 0.0;
+  double initial_rmse_px = 0.0, final_rmse_px = 0.0;  ///< over every observation the BA saw
+  double final_inlier_rmse_px = 0.0;  ///< over the observations it kept (the outliers it rejected grow)
+  int final_inliers = 0;
   double snapshot_s = 0.0, solve_s = 0.0, write_back_s = 0.0;
   std::string message;
 };

@@ -339,7 +339,9 @@ void ServerBackend::RunGlobalBa(MapId map) {
   e.seconds = seconds;
   e.detail = (r.free_keyframes < r.keyframes ? std::to_string(r.free_keyframes) + " of them free (a region), " : "") +
              std::to_string(r.points) + " points, " + std::to_string(r.iterations) + " iterations, rmse " +
-             std::to_string(r.initial_rmse_px) + " -> " + std::to_string(r.final_rmse_px) + " px, " +
+             std::to_string(r.initial_rmse_px) + " -> " + std::to_string(r.final_rmse_px) + " px (" +
+             std::to_string(r.final_inliers) + " of " + std::to_string(r.observations - r.observations_dropped) +
+             " observations inliers: " + std::to_string(r.final_inlier_rmse_px) + " px), " +
              std::to_string(r.keyframes_added_meanwhile) + " keyframes added meanwhile";
   AddEvent(e);
 }

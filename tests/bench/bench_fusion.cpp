@@ -91,7 +91,9 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
       out.error = error;
       return out;
     }
-    result = ccm::replay::PlayRecording(*recording, &backend, ccm::replay::PlayOptions{});
+    ccm::replay::PlayOptions play;
+    play.final_global_ba = base.final_global_ba;
+    result = ccm::replay::PlayRecording(*recording, &backend, play);
     for (const ccm::AgentBatch& b : recording->batches) {
       for (const ccm::KeyframeData& k : b.keyframes) stamps[k.id] = k.stamp_ns;
     }
@@ -163,6 +165,9 @@ int main(int argc, char** argv) {
   app.add_option("--vocab", vocab_path, "bag-of-words vocabulary")->capture_default_str();
   app.add_option("--out", out_dir, "folder for results.jsonl (one line per scene) and report.md");
   app.add_flag("--no-sharing", no_sharing, "agents get no map data back from the server");
+  bool no_final_ba = false;
+  app.add_flag("--no-final-ba", no_final_ba,
+               "score the maps as a live server holds them: without the end-of-run global BA and sweep");
   app.add_flag("--events", events, "print every fusion and loop with its ground-truth check");
   app.add_flag("--recall", recall,
                "for each overlapping pair that never fused: were the right keyframes retrieved, and where did "
@@ -232,6 +237,7 @@ int main(int argc, char** argv) {
   const auto vocab = std::make_shared<const ccm::Vocabulary>(std::move(*loaded));
   replay.agent_vocabulary = vocab;
   replay.map_sharing = !no_sharing;
+  replay.final_global_ba = !no_final_ba;
   replay.progress_period_s = 1e9;
   if (!record_dir.empty()) std::filesystem::create_directories(record_dir);
   std::ofstream jsonl;
