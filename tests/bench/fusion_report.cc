@@ -25,6 +25,10 @@ double Median(std::vector<double> v) {
 
 std::string Percent(int n, int d) { return d ? Format("%d/%d (%.0f %%)", n, d, 100.0 * n / d) : std::string("-"); }
 
+// A segment too short for two 5 m windows has no scale drift (the scorer leaves -1).
+std::string ScaleDrift(double drift) { return drift < 0.0 ? std::string("n/a") : Format("%.0f %%", 100.0 * drift); }
+std::string FirstWindowScale(double scale) { return scale < 0.0 ? std::string("n/a") : Format("%.2f", scale); }
+
 std::string PairLine(const PairScore& p) {
   const sim::PairTruth& t = p.truth;
   std::string s = Format("%d-%d %s", t.a, t.b, t.kind.c_str());
@@ -36,9 +40,10 @@ std::string PairLine(const PairScore& p) {
 }
 
 std::string EventLine(const char* kind, const DetectionCheck& c) {
-  return Format("  %s %u/%u: rotation error %.1f deg, direction error %.1f deg, scale error %+.1f %%, view share %.2f (window %.2f)%s; %s\n",
+  return Format("  %s %u/%u: rotation error %.1f deg, direction error %.1f deg (baseline %.2f m, estimated %.2f m), "
+                "scale error %+.1f %%, view share %.2f (window %.2f)%s; %s\n",
                 kind, c.event.query.agent(), c.event.candidate.agent(), c.rotation_error_deg, c.direction_error_deg,
-                100.0 * c.scale_error, c.view_share, c.window_view_share, c.wrong ? " WRONG" : "", c.event.detail.c_str());
+                c.baseline_m, c.estimated_baseline_m, 100.0 * c.scale_error, c.view_share, c.window_view_share, c.wrong ? " WRONG" : "", c.event.detail.c_str());
 }
 
 }  // namespace
@@ -91,10 +96,11 @@ std::string SceneBlock(const SceneResult& r, bool events) {
     }
   }
   for (const AgentScore& a : sc.agents) {
-    s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m), scale drift %.0f %% "
-                "(first 5 m at %.2f)%s, %d loop(s), revisit links %d (%d false), %zu server keyframes (%zu anchored)\n",
+    s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m), scale drift %s "
+                "(first 5 m at %s)%s, %d loop(s), revisit links %d (%d false), %zu server keyframes (%zu anchored)\n",
                 a.name.c_str(), 100.0 * a.tracked_share, a.segments, static_cast<long long>(a.relocalizations),
-                a.vo_ate_m, a.vo_ate_path_pct, a.path_m, 100.0 * a.vo_scale_drift, a.vo_first_window_scale,
+                a.vo_ate_m, a.vo_ate_path_pct, a.path_m, ScaleDrift(a.vo_scale_drift).c_str(),
+                FirstWindowScale(a.vo_first_window_scale).c_str(),
                 a.revisits ? (a.revisit_joined ? ", revisits (joined)" : ", revisits (not joined)") : "", a.loops,
                 a.true_revisit_links, a.false_revisit_links, a.server_keyframes, a.anchored_keyframes);
   }
@@ -196,10 +202,11 @@ std::string Report(const std::vector<SceneResult>& results) {
        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const SceneResult& r : results) {
     for (const AgentScore& a : r.score.agents) {
-      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %.0f %% | %.2f | %s | %d | %d (%d) |\n",
+      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %s | %s | %s | %d | %d (%d) |\n",
                   static_cast<unsigned long long>(r.scene.seed), a.name.c_str(), a.path_m, 100.0 * a.tracked_share,
                   a.segments, static_cast<long long>(a.relocalizations), a.vo_ate_m, a.vo_ate_path_pct,
-                  100.0 * a.vo_scale_drift, a.vo_first_window_scale, a.revisits ? "yes" : "no", a.loops,
+                  ScaleDrift(a.vo_scale_drift).c_str(), FirstWindowScale(a.vo_first_window_scale).c_str(),
+                  a.revisits ? "yes" : "no", a.loops,
                   a.true_revisit_links, a.false_revisit_links);
     }
   }

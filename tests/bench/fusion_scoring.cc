@@ -75,6 +75,7 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
                              q_from_c.rotation().toRotationMatrix();
   c.rotation_error_deg = Eigen::AngleAxisd(dR).angle() * 180.0 / M_PI;
   const Eigen::Vector3d t_true = q_from_c.translation(), t_est = e.query_from_candidate.translation();
+  c.baseline_m = t_true.norm();
   if (t_true.norm() >= 0.3 && t_est.norm() > 1e-9) {
     const double cosine = std::clamp(t_true.normalized().dot(t_est.normalized()), -1.0, 1.0);
     c.direction_error_deg = std::acos(cosine) * 180.0 / M_PI;
@@ -91,6 +92,7 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
   }
   const auto scale_q = LocalVoScale(r.agents[qa], *qs), scale_c = LocalVoScale(r.agents[ca], *cs);
   if (scale_q && scale_c) c.scale_error = e.query_from_candidate.scale() * *scale_q / *scale_c - 1.0;
+  if (scale_q) c.estimated_baseline_m = *scale_q * t_est.norm();
   c.wrong = c.rotation_error_deg > 10.0 || c.direction_error_deg > 30.0 || c.window_view_share < kMinViewShare;
   return c;
 }

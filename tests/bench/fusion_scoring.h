@@ -28,6 +28,11 @@ struct DetectionCheck {
   ServerEvent event;
   double rotation_error_deg = 0.0;
   double direction_error_deg = 0.0;  ///< of the translation, when the keyframes are >= 0.3 m apart
+  double baseline_m = 0.0;           ///< true distance between the two keyframes' centres
+  /// The same distance as the detection estimated it, in metres by the query agent's local VO
+  /// scale; NaN where that scale is unknown. With baseline_m it tells whether a large
+  /// direction error comes with a wrong distance or only a short baseline.
+  double estimated_baseline_m = std::numeric_limits<double>::quiet_NaN();
   double view_share = 0.0;           ///< ground-truth co-visibility of the two keyframes (min share)
   /// The same against the candidate's neighbourhood: the best share over the candidate
   /// agent's views within 2 s of the candidate keyframe. A fusion is verified against the
