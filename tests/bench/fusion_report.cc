@@ -96,10 +96,10 @@ std::string SceneBlock(const SceneResult& r, bool events) {
     }
   }
   for (const AgentScore& a : sc.agents) {
-    s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of %.0f m), scale drift %s "
+    s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of the %.0f m its keyframes span; flight %.0f m), scale drift %s "
                 "(first 5 m at %s)%s, %d loop(s), revisit links %d (%d false), %zu server keyframes (%zu anchored)\n",
                 a.name.c_str(), 100.0 * a.tracked_share, a.segments, static_cast<long long>(a.relocalizations),
-                a.vo_ate_m, a.vo_ate_path_pct, a.path_m, ScaleDrift(a.vo_scale_drift).c_str(),
+                a.vo_ate_m, a.vo_ate_path_pct, a.vo_path_m, a.path_m, ScaleDrift(a.vo_scale_drift).c_str(),
                 FirstWindowScale(a.vo_first_window_scale).c_str(),
                 a.revisits ? (a.revisit_joined ? ", revisits (joined)" : ", revisits (not joined)") : "", a.loops,
                 a.true_revisit_links, a.false_revisit_links, a.server_keyframes, a.anchored_keyframes);
@@ -135,7 +135,7 @@ nlohmann::json SceneJson(const SceneResult& r) {
                          {"mean_standalone_ate_m", m.mean_standalone_ate_m}, {"scale_spread", m.scale_spread}});
   }
   for (const AgentScore& a : sc.agents) {
-    j["agent_vo"].push_back({{"name", a.name}, {"path_m", a.path_m}, {"tracked", a.tracked_share},
+    j["agent_vo"].push_back({{"name", a.name}, {"path_m", a.path_m}, {"vo_path_m", a.vo_path_m}, {"tracked", a.tracked_share},
                              {"segments", a.segments}, {"relocalizations", a.relocalizations}, {"ate_m", a.vo_ate_m},
                              {"ate_path_pct", a.vo_ate_path_pct}, {"scale_drift", a.vo_scale_drift},
                              {"first_window_scale", a.vo_first_window_scale}, {"revisits", a.revisits}, {"loops", a.loops},
@@ -198,12 +198,12 @@ std::string Report(const std::vector<SceneResult>& results) {
                 sc.worst_joint_ratio >= 0 ? Format("%.2f", sc.worst_joint_ratio).c_str() : "-",
                 sc.worst_joint_ratio >= 0 ? Format("%.1f %%", 100.0 * sc.worst_scale_spread).c_str() : "-", r.wall_s);
   }
-  s += "\n| seed | agent | path m | tracked | segments | relocalizations | VO ATE m | % of path | scale drift | first 5 m | revisits | loops | revisit links (false) |\n"
-       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  s += "\n| seed | agent | path m | its keyframes span m | tracked | segments | relocalizations | VO ATE m | % of the span | scale drift | first 5 m | revisits | loops | revisit links (false) |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const SceneResult& r : results) {
     for (const AgentScore& a : r.score.agents) {
-      s += Format("| %llu | %s | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %s | %s | %s | %d | %d (%d) |\n",
-                  static_cast<unsigned long long>(r.scene.seed), a.name.c_str(), a.path_m, 100.0 * a.tracked_share,
+      s += Format("| %llu | %s | %.0f | %.0f | %.0f %% | %d | %lld | %.3f | %.2f | %s | %s | %s | %d | %d (%d) |\n",
+                  static_cast<unsigned long long>(r.scene.seed), a.name.c_str(), a.path_m, a.vo_path_m, 100.0 * a.tracked_share,
                   a.segments, static_cast<long long>(a.relocalizations), a.vo_ate_m, a.vo_ate_path_pct,
                   ScaleDrift(a.vo_scale_drift).c_str(), FirstWindowScale(a.vo_first_window_scale).c_str(),
                   a.revisits ? "yes" : "no", a.loops,

@@ -112,6 +112,9 @@ void ScoreSegments(const report::AgentRunResult& a, AgentScore* score) {
     const AgentResult& r = rep.agents[0];
     sum_sq += r.ate_m.rmse * r.ate_m.rmse * static_cast<double>(r.matched);
     n += r.matched;
+    for (size_t k = 1; k < r.gt_matched.size(); ++k) {
+      score->vo_path_m += (r.gt_matched[k].translation() - r.gt_matched[k - 1].translation()).norm();
+    }
     if (r.matched > longest && r.scale_drift.windows.size() >= 2) {
       longest = r.matched;
       score->vo_scale_drift = r.scale_drift.max_over_min - 1.0;
@@ -197,7 +200,8 @@ SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth
     as.segments = a.segments;
     as.relocalizations = a.relocalizations;
     ScoreSegments(a, &as);
-    if (as.vo_ate_m >= 0 && as.path_m > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / as.path_m;
+    const double vo_path = as.vo_path_m > 0.0 ? as.vo_path_m : as.path_m;
+    if (as.vo_ate_m >= 0 && vo_path > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / vo_path;
     as.revisits = truth.agents()[i].revisits;
     ScoreRevisitLinks(sim, truth, static_cast<int>(i), a, &as);
     as.server_keyframes = a.server_keyframes.size();

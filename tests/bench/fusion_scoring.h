@@ -65,7 +65,11 @@ struct AgentScore {
   int segments = 0;
   int64_t relocalizations = 0;
   double vo_ate_m = -1.0;            ///< VO keyframes, each segment aligned on its own
-  double vo_ate_path_pct = -1.0;     ///< vo_ate_m / path * 100
+  /// Ground-truth path its own VO keyframes span (chords between consecutive ones, summed over
+  /// segments). With map sharing an agent that tracks other agents' keyframes makes few of
+  /// its own, so its VO ATE covers only part of its flight: the share is taken of that part.
+  double vo_path_m = 0.0;
+  double vo_ate_path_pct = -1.0;     ///< vo_ate_m / vo_path_m * 100 (path_m if that is unknown)
   /// Scale drift of its longest segment over 5 m windows of path (largest / smallest window
   /// scale - 1; -1: shorter than two windows) and the first window's scale (its own
   /// alignment = 1): far from 1 when the scale moved right after initialization.
