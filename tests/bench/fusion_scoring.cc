@@ -12,6 +12,7 @@
 
 #include "slam_core/eval/evaluator.h"
 #include "slam_core/eval/metrics.h"
+#include "slam_core/eval/metrics.h"
 
 namespace ccm::bench {
 namespace {
@@ -112,9 +113,7 @@ void ScoreSegments(const report::AgentRunResult& a, AgentScore* score) {
     const AgentResult& r = rep.agents[0];
     sum_sq += r.ate_m.rmse * r.ate_m.rmse * static_cast<double>(r.matched);
     n += r.matched;
-    for (size_t k = 1; k < r.gt_matched.size(); ++k) {
-      score->vo_path_m += (r.gt_matched[k].translation() - r.gt_matched[k - 1].translation()).norm();
-    }
+    score->vo_path_m += PathLengthM(r.gt_matched);
     if (r.matched > longest && r.scale_drift.windows.size() >= 2) {
       longest = r.matched;
       score->vo_scale_drift = r.scale_drift.max_over_min - 1.0;
