@@ -12,7 +12,6 @@
 
 #include "slam_core/eval/evaluator.h"
 #include "slam_core/eval/metrics.h"
-#include "slam_core/eval/metrics.h"
 
 namespace ccm::bench {
 namespace {
@@ -77,7 +76,7 @@ DetectionCheck Check(const sim::Simulation& sim, const sim::OverlapTruth& truth,
   c.rotation_error_deg = Eigen::AngleAxisd(dR).angle() * 180.0 / M_PI;
   const Eigen::Vector3d t_true = q_from_c.translation(), t_est = e.query_from_candidate.translation();
   c.baseline_m = t_true.norm();
-  if (t_true.norm() >= 0.3 && t_est.norm() > 1e-9) {
+  if (c.baseline_m >= 0.3 && t_est.norm() > 1e-9) {
     const double cosine = std::clamp(t_true.normalized().dot(t_est.normalized()), -1.0, 1.0);
     c.direction_error_deg = std::acos(cosine) * 180.0 / M_PI;
   }
