@@ -16,6 +16,9 @@ std::string ServerConfig::Validate() const {
     return "revisit_distance_ratio must be in [0, 1) (0: off)";
   }
   if (global_ba_max_free_keyframes < 0) return "global_ba_max_free_keyframes must be >= 0 (0: the whole map)";
+  if (!(global_ba_min_parallax_deg >= 0.0 && global_ba_min_parallax_deg < 90.0)) {
+    return "global_ba_min_parallax_deg must be in [0, 90) degrees (0: no point held)";
+  }
   if (!(liveliness_timeout_s > 0.0)) return "liveliness_timeout_s must be > 0";
   if (!(agent_slot_release_s == 0.0 || agent_slot_release_s >= liveliness_timeout_s)) {
     return "agent_slot_release_s must be 0 (never) or >= liveliness_timeout_s";
@@ -60,6 +63,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("share_own_keyframes_after_s", &config->share_own_keyframes_after_s);
   r.Get("revisit_distance_ratio", &config->revisit_distance_ratio);
   r.Get("global_ba_max_free_keyframes", &config->global_ba_max_free_keyframes);
+  r.Get("global_ba_min_parallax_deg", &config->global_ba_min_parallax_deg);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);
   r.Get("agent_slot_release_s", &config->agent_slot_release_s);
   r.Get("vocabulary", &config->vocabulary);

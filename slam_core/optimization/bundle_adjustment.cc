@@ -264,6 +264,7 @@ OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOpt
     first_pass = false;
     out.final_cost = s.final_cost;
     out.iterations += std::max(0, static_cast<int>(s.iterations.size()) - 1);
+    out.rejected_steps += s.num_unsuccessful_steps;
     out.message = s.BriefReport();
   };
   if (options.robust_iterations > 0) run(true, options.robust_iterations);

@@ -59,6 +59,9 @@ struct OptimizationSummary {
   double initial_cost = 0.0;
   double final_cost = 0.0;
   int iterations = 0;  ///< total solver iterations over all rounds
+  /// Of those, steps Ceres tried and threw away (the cost went up, or a point stopped projecting
+  /// and the evaluation failed): each costs a linear solve like a good one.
+  int rejected_steps = 0;
   double solve_time_s = 0.0;
   /// Per observation (same order as BundleProblem::observations, or the pose-only input):
   /// false for outliers (chi2 above threshold after the final round) and for observations

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <unordered_map>
 
@@ -18,12 +19,14 @@ struct Snapshot {
   std::vector<MapPointId> point_ids;
   std::vector<KeyframeId> untouched;  ///< in the map at the snapshot but not in the problem (a region's outside)
   size_t free_keyframes = 0;
+  int points_low_parallax = 0;
   uint64_t generation = 0;
 };
 
 // `region`: the free keyframes (null: all, the oldest fixed as the gauge); keyframes that
 // see their points enter fixed.
-Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, const std::unordered_set<KeyframeId>* region) {
+Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, double min_parallax_deg,
+                      const std::unordered_set<KeyframeId>* region) {
   Snapshot s;
   s.generation = smap.generation();
   const Map& map = smap.map();
@@ -77,9 +80,14 @@ Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, const std::un
       mine.push_back(o);
     }
     if (static_cast<int>(mine.size()) < min_observations) continue;
+    std::vector<Eigen::Vector3d> centres;
+    for (const opt::Observation& o : mine) centres.push_back(kfs[o.pose_index]->world_from_cam().translation());
+    const bool low_parallax = !HasParallax(mp->position(), centres, min_parallax_deg);
+    s.points_low_parallax += low_parallax ? 1 : 0;
     opt::PointBlock p;
     p.id = mp->id().packed();
     p.position_w = mp->position();
+    p.fixed = low_parallax;
     s.problem.points.push_back(p);
     s.point_ids.push_back(mp->id());
     s.problem.observations.insert(s.problem.observations.end(), mine.begin(), mine.end());
@@ -129,6 +137,22 @@ opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options,
   ba.linear_solver = options.linear_solver;
   ba.abort = abort;
   return ba;
+}
+
+bool HasParallax(const Eigen::Vector3d& point_w, const std::vector<Eigen::Vector3d>& centres_w, double min_deg) {
+  if (!(min_deg > 0.0)) return true;
+  const double max_cos = std::cos(min_deg * M_PI / 180.0);
+  std::vector<Eigen::Vector3d> rays;
+  for (const Eigen::Vector3d& c : centres_w) {
+    const Eigen::Vector3d ray = point_w - c;
+    if (!(ray.norm() > 0.0)) continue;
+    const Eigen::Vector3d unit = ray.normalized();
+    for (const Eigen::Vector3d& other : rays) {
+      if (unit.dot(other) < max_cos) return true;
+    }
+    rays.push_back(unit);
+  }
+  return false;
 }
 
 std::vector<size_t> DropGrossOutliers(opt::BundleProblem* problem, const GlobalBaOptions& options) {
@@ -197,12 +221,14 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     const bool regional = options.max_free_keyframes > 0 && !options.region_seeds.empty() &&
                           smap->map().num_keyframes() > static_cast<size_t>(options.max_free_keyframes);
     if (regional) region = CovisibleRegion(smap->map(), options.region_seeds, options.max_free_keyframes);
-    snap = TakeSnapshot(*smap, options.min_observations, regional && !region.empty() ? &region : nullptr);
+    snap = TakeSnapshot(*smap, options.min_observations, options.min_parallax_deg,
+                        regional && !region.empty() ? &region : nullptr);
   }
   r.snapshot_s = SecondsSince(t0);
   r.keyframes = static_cast<int>(snap.kf_ids.size());
   r.free_keyframes = static_cast<int>(snap.free_keyframes);
   r.points = static_cast<int>(snap.point_ids.size());
+  r.points_low_parallax = snap.points_low_parallax;
   r.observations = static_cast<int>(snap.problem.observations.size());
   if (snap.problem.observations.empty() || snap.kf_ids.size() < 2) return r;
 
@@ -221,6 +247,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   const opt::OptimizationSummary s = opt::BundleAdjust(&snap.problem, GlobalBaSolverOptions(options, abort));
   r.solve_s = SecondsSince(t0);
   r.iterations = s.iterations;
+  r.rejected_steps = s.rejected_steps;
   r.message = s.message;
   if (!s.usable) {
     r.outcome = abort && abort->load() ? GlobalBaReport::Outcome::kAborted : GlobalBaReport::Outcome::kFailed;
@@ -259,7 +286,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
   for (size_t p = 0; p < snap.point_ids.size(); ++p) in_snapshot.emplace(snap.point_ids[p], p);
   for (const auto& mp : map.map_points()) {
     const auto it = in_snapshot.find(mp->id());
-    if (it != in_snapshot.end()) {
+    if (it != in_snapshot.end() && !snap.problem.points[it->second].fixed) {  // held ones follow their keyframe
       const size_t p = it->second;
       mp->SetPosition(snap.problem.points[p].position_w + (mp->position() - points_before[p].position_w));
       continue;

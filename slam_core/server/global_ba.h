@@ -23,6 +23,13 @@ struct GlobalBaOptions {
   int threads = 2;
   /// Points need this many observations to enter (fewer constrain nothing).
   int min_observations = 2;
+  /// Points whose rays from their keyframes span less than this angle (0: none) are held fixed
+  /// and afterwards follow their reference keyframe, like points added meanwhile. Free, their
+  /// depth is nearly unconstrained, so a Gauss-Newton step slides one along its ray until it
+  /// crosses a camera and the whole step is thrown away (half of the iterations of a 400- or
+  /// 1,000-keyframe BA of the hall3 copies); held, they still pin the rotations. Left out
+  /// instead, the real KITTI split lost accuracy (docs/server.md, "Points of low parallax").
+  double min_parallax_deg = 1.0;
   /// Observations whose squared whitened error exceeds this before the BA are left out
   /// (gross outliers: ~40 px at level 0).
   double gross_outlier_chi2 = 1600.0;
@@ -41,6 +48,9 @@ struct GlobalBaOptions {
 /// The solver settings RunGlobalBundleAdjustment uses (a robust pass, outlier rejection, a
 /// plain pass of `iterations` each); bench_server times the same.
 opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options, const std::atomic<bool>* abort);
+/// True if the rays from two of the camera centres to the point meet at min_deg or more
+/// (always true for min_deg <= 0).
+bool HasParallax(const Eigen::Vector3d& point_w, const std::vector<Eigen::Vector3d>& centres_w, double min_deg);
 /// Leaves out the observations whose chi2 before the BA exceeds options.gross_outlier_chi2 (or
 /// that do not project); returns their indices in the problem as it was.
 std::vector<size_t> DropGrossOutliers(opt::BundleProblem* problem, const GlobalBaOptions& options);
@@ -55,7 +65,9 @@ struct GlobalBaReport {
   int free_keyframes = 0;  ///< of `keyframes`, those optimized (all but the fixed periphery of a region)
   int keyframes_added_meanwhile = 0;
   int observations_dropped = 0;  ///< gross outliers left out
+  int points_low_parallax = 0;   ///< of `points`, those held for their parallax (GlobalBaOptions::min_parallax_deg)
   int iterations = 0;
+  int rejected_steps = 0;  ///< of `iterations`, steps the solver threw away
   double initial_rmse_px = 0.0, final_rmse_px = 0.0;  ///< over every observation the BA saw
   double final_inlier_rmse_px = 0.0;  ///< over the observations it kept (the outliers it rejected grow)
   int final_inliers = 0;

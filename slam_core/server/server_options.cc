@@ -53,6 +53,9 @@ std::string OptimizationJobOptions::Validate() const {
   if (global_ba_iterations < 1) return "optimization.global_ba_iterations must be >= 1";
   if (global_ba_threads < 1) return "optimization.global_ba_threads must be >= 1";
   if (global_ba_max_free_keyframes < 0) return "optimization.global_ba_max_free_keyframes must be >= 0";
+  if (!(global_ba_min_parallax_deg >= 0.0 && global_ba_min_parallax_deg < 90.0)) {
+    return "optimization.global_ba_min_parallax_deg must be in [0, 90)";
+  }
   if (!(global_ba_pause_factor >= 0.0)) return "optimization.global_ba_pause_factor must be >= 0";
   if (pose_graph_iterations < 1) return "optimization.pose_graph_iterations must be >= 1";
   return "";

@@ -205,6 +205,10 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
   std::string ba_solver = ccm::opt::BaLinearSolverName(replay.server.optimization.global_ba_solver);
+  app.add_option("--ba-min-parallax", replay.server.optimization.global_ba_min_parallax_deg,
+                 "points seen under less parallax [deg] are held in the server's global BA (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 89.9));
   app.add_option("--ba-max-free", replay.server.optimization.global_ba_max_free_keyframes,
                  "global BA after a loop or fusion in a map above this many keyframes: only the region around it (0: whole)")
       ->capture_default_str()

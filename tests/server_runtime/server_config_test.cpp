@@ -55,6 +55,9 @@ TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
   std::ofstream(path) << "global_ba_max_free_keyframes: 250\n";
   ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
   EXPECT_EQ(c.global_ba_max_free_keyframes, 250);
+  std::ofstream(path) << "global_ba_min_parallax_deg: 90\n";
+  EXPECT_FALSE(LoadServerConfig(path, &c, &error));
+  EXPECT_NE(error.find("global_ba_min_parallax_deg"), std::string::npos) << error;
   std::ofstream(path) << "global_ba_max_free_keyframes: -1\n";
   EXPECT_FALSE(LoadServerConfig(path, &c, &error));
   EXPECT_NE(error.find("global_ba_max_free_keyframes"), std::string::npos) << error;

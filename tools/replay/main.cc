@@ -184,6 +184,10 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
                  "a loop or fusion in a map above this many keyframes gets a global BA of its region only (0: whole map)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app->add_option("--ba-min-parallax", a->replay.server.optimization.global_ba_min_parallax_deg,
+                  "points seen under less parallax [deg] are held in the server's global BA (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 89.9));
   app->add_flag("--no-final-ba", a->no_final_ba,
                 "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
   app->add_option("--load-map", a->load_map, "start from a saved map stack");

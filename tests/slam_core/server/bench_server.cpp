@@ -141,7 +141,7 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
   std::printf("\n## 2. Global BA vs keyframes (map grown in time order; the server's global BA: %d robust + %d "
               "plain iterations, %d threads; gross outliers left out)\n\n",
               options.iterations, options.iterations, options.threads);
-  std::printf("| keyframes | points | observations | solver | wall [s] | CPU [s] | iterations | RMSE before -> after [px] |\n|---|---|---|---|---|---|---|---|\n");
+  std::printf("| keyframes | points | observations | solver | wall [s] | CPU [s] | iterations (rejected) | RMSE before -> after [px] | inlier RMSE after [px] | cost before -> after |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (const size_t n : sizes) {
     if (n > kfs.size()) {
       std::printf("| %zu | (map has only %zu keyframes) | | | |\n", n, kfs.size());
@@ -164,7 +164,10 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
                        kfs[it->second]->pyramid().scale[k.level]});
       }
       if (obs.size() < 2) continue;
-      p.points.push_back({mp->id().packed(), mp->position(), false});
+      std::vector<Eigen::Vector3d> centres;
+      for (const opt::Observation& o : obs) centres.push_back(p.poses[o.pose_index].world_from_cam.translation());
+      const bool low_parallax = !HasParallax(mp->position(), centres, options.min_parallax_deg);  // held, as the server's BA
+      p.points.push_back({mp->id().packed(), mp->position(), low_parallax});
       p.observations.insert(p.observations.end(), obs.begin(), obs.end());
     }
     DropGrossOutliers(&p, options);
@@ -175,9 +178,11 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
       const auto w0 = Clock::now();
       const double c0 = CpuSeconds();
       const auto s = opt::BundleAdjust(&q, GlobalBaSolverOptions(options, nullptr));
-      std::printf("| %zu | %zu | %zu | %s | %.2f | %.2f | %d | %.3f -> %.3f |%s\n", n, q.points.size(),
+      std::printf("| %zu | %zu | %zu | %s | %.2f | %.2f | %d (%d) | %.3f -> %.3f | %.3f | %.4g -> %.4g |%s\n", n, q.points.size(),
                   q.observations.size(), opt::BaLinearSolverName(solver), std::chrono::duration<double>(Clock::now() - w0).count(),
-                  CpuSeconds() - c0, s.iterations, rmse0, opt::ReprojectionRmsePx(q), s.usable ? "" : " failed");
+                  CpuSeconds() - c0, s.iterations, s.rejected_steps, rmse0, opt::ReprojectionRmsePx(q),
+                  opt::ReprojectionRmsePx(q, &s.inlier), s.initial_cost, s.final_cost,
+                  s.usable ? "" : (" failed: " + s.message).c_str());
       std::fflush(stdout);
     }
   }
@@ -266,6 +271,7 @@ int main(int argc, char** argv) {
   app.add_flag("--skip-registration", skip_registration, "skip the registration table");
   app.add_option("--ba-sizes", ba_sizes, "keyframe counts of the global BA table")->delimiter(',')->capture_default_str();
   app.add_option("--ba-iterations", ba.iterations, "iterations of each pass of the global BA")->capture_default_str();
+  app.add_option("--ba-min-parallax", ba.min_parallax_deg, "points seen under less parallax [deg] are held fixed in the global BA (0: none)")->capture_default_str();
   app.add_option("--ba-threads", ba.threads, "Ceres threads of the global BA")->capture_default_str();
   std::vector<int> regions;
   size_t map_keyframes = 0;

@@ -158,6 +158,26 @@ TEST(GlobalBa, WithoutSeedsTheWholeMapIsFree) {
   for (int k = kPerturbedFirst; k <= kPerturbedLast; ++k) EXPECT_LT(PositionError(c, k), 0.01) << k;
 }
 
+TEST(GlobalBa, PointsSeenUnderLessThanTheMinimumParallaxAreHeld) {
+  // Two centres 1 m apart: a point 10 m ahead is seen under ~5.7 deg, one 100 m ahead ~0.57 deg.
+  const std::vector<Eigen::Vector3d> centres = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0)};
+  EXPECT_TRUE(HasParallax(Eigen::Vector3d(0.5, 0, 10), centres, 1.0));
+  EXPECT_FALSE(HasParallax(Eigen::Vector3d(0.5, 0, 100), centres, 1.0));
+  EXPECT_TRUE(HasParallax(Eigen::Vector3d(0.5, 0, 100), centres, 0.0)) << "0 turns the check off";
+  EXPECT_FALSE(HasParallax(Eigen::Vector3d(0.5, 0, 10), {centres[0]}, 1.0)) << "one ray spans no angle";
+  // At 90 deg every corridor point is held (at its true position): the pushed keyframes still
+  // come back, pinned by the held points, which is what held points are for.
+  MapStack stack{MapOptions{}};
+  Corridor c = BuildCorridor(&stack);
+  GlobalBaOptions o;
+  o.threads = 1;
+  o.min_parallax_deg = 90.0;
+  const GlobalBaReport r = RunGlobalBundleAdjustment(c.map, o, nullptr);
+  ASSERT_EQ(r.outcome, GlobalBaReport::Outcome::kApplied) << r.message;
+  EXPECT_EQ(r.points_low_parallax, r.points);
+  for (int k = kPerturbedFirst; k <= kPerturbedLast; ++k) EXPECT_LT(PositionError(c, k), 0.01) << k;
+}
+
 TEST(GlobalBa, APartThatCameInShortComesBackToOneScaleAndItsAnchorsStretchWithIt) {
   MapStack stack{MapOptions{}};
   Corridor c = BuildCorridor(&stack, Distortion::kShortSecondHalf);
