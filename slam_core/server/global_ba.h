@@ -27,9 +27,10 @@ struct GlobalBaOptions {
   /// and afterwards follow their reference keyframe, like points added meanwhile. Free, their
   /// depth is nearly unconstrained, so a Gauss-Newton step slides one along its ray until it
   /// crosses a camera and the whole step is thrown away (half of the iterations of a 400- or
-  /// 1,000-keyframe BA of the hall3 copies); held, they still pin the rotations. Left out
-  /// instead, the real KITTI split lost accuracy (docs/server.md, "Points of low parallax").
-  double min_parallax_deg = 1.0;
+  /// 1,000-keyframe BA of the hall3 copies); held, they still pin the rotations. Off by
+  /// default: 1 deg helped both real two-agent splits but made fused maps of generated scenes
+  /// worse (docs/server.md, "Points of low parallax in the global BA").
+  double min_parallax_deg = 0.0;
   /// Observations whose squared whitened error exceeds this before the BA are left out
   /// (gross outliers: ~40 px at level 0).
   double gross_outlier_chi2 = 1600.0;

@@ -114,7 +114,7 @@ struct OptimizationJobOptions {
   /// map). The final BA of a run is always whole.
   int global_ba_max_free_keyframes = 0;
   /// Points seen under less parallax are held in a global BA (GlobalBaOptions::min_parallax_deg; 0: none).
-  double global_ba_min_parallax_deg = 1.0;
+  double global_ba_min_parallax_deg = 0.0;
   /// After a global BA of a map that took t seconds, the next one of that map waits
   /// factor * t (threaded runs): with many agents, loops and fusions come faster than a
   /// large map's BA, and back-to-back BAs would take the cores registration needs.
