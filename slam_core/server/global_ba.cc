@@ -80,9 +80,12 @@ Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, double min_pa
       mine.push_back(o);
     }
     if (static_cast<int>(mine.size()) < min_observations) continue;
-    std::vector<Eigen::Vector3d> centres;
-    for (const opt::Observation& o : mine) centres.push_back(kfs[o.pose_index]->world_from_cam().translation());
-    const bool low_parallax = !HasParallax(mp->position(), centres, min_parallax_deg);
+    bool low_parallax = false;  // off by default: no per-point work under the map lock then
+    if (min_parallax_deg > 0.0) {
+      std::vector<Eigen::Vector3d> centres;
+      for (const opt::Observation& o : mine) centres.push_back(kfs[o.pose_index]->world_from_cam().translation());
+      low_parallax = !HasParallax(mp->position(), centres, min_parallax_deg);
+    }
     s.points_low_parallax += low_parallax ? 1 : 0;
     opt::PointBlock p;
     p.id = mp->id().packed();
