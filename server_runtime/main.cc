@@ -193,6 +193,7 @@ std::unique_ptr<ServerBackend> OpenBackend(const server::ServerConfig& config,
   options.share_own_keyframes_after_s = config.share_own_keyframes_after_s;
   options.optimization.global_ba_max_free_keyframes = config.global_ba_max_free_keyframes;
   options.optimization.global_ba_min_parallax_deg = config.global_ba_min_parallax_deg;
+  options.optimization.global_ba_low_parallax_inverse_depth = config.global_ba_low_parallax_inverse_depth;
   options.redundancy.revisit_distance_ratio = config.revisit_distance_ratio;
   if (config.load_map.empty()) return std::make_unique<ServerBackend>(vocabulary, options);
   std::string warning;

@@ -64,6 +64,7 @@ bool LoadServerConfig(const std::string& path, ServerConfig* config, std::string
   r.Get("revisit_distance_ratio", &config->revisit_distance_ratio);
   r.Get("global_ba_max_free_keyframes", &config->global_ba_max_free_keyframes);
   r.Get("global_ba_min_parallax_deg", &config->global_ba_min_parallax_deg);
+  r.Get("global_ba_low_parallax_inverse_depth", &config->global_ba_low_parallax_inverse_depth);
   r.Get("liveliness_timeout_s", &config->liveliness_timeout_s);
   r.Get("agent_slot_release_s", &config->agent_slot_release_s);
   r.Get("vocabulary", &config->vocabulary);

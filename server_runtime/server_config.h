@@ -33,6 +33,7 @@ struct ServerConfig {
   double revisit_distance_ratio = ServerOptions{}.redundancy.revisit_distance_ratio;  // a keyframe this close to one of an earlier pass leaves as its anchor (0: off)
   int global_ba_max_free_keyframes = ServerOptions{}.optimization.global_ba_max_free_keyframes;  // a loop or fusion in a bigger map: BA of its region (0: whole map)
   double global_ba_min_parallax_deg = ServerOptions{}.optimization.global_ba_min_parallax_deg;  // points seen under less parallax are held in a global BA (0: none)
+  bool global_ba_low_parallax_inverse_depth = ServerOptions{}.optimization.global_ba_low_parallax_inverse_depth;  // those points move as inverse depths instead of being held
   double liveliness_timeout_s = 3.0; // no heartbeat for this long: the agent left (logged; its maps stay)
   double agent_slot_release_s = 600.0;  // silent this long: a new agent beyond max_agents takes its slot (0: never)
   std::string vocabulary;            // bag-of-words vocabulary file; empty: the built-in simulator one

@@ -11,10 +11,15 @@
 
 #include "slam_core/common/stopwatch.h"
 #include "slam_core/optimization/pose_manifold.h"
+#include "slam_core/optimization/reprojection_cost.h"
 #include "slam_core/optimization/reprojection_cost_analytic.h"
 
 namespace ccm::opt {
 namespace {
+
+// An anchored point's inverse depth stays at or above this (1 km at map scale ~1 m): a step
+// may push a far point to infinity, not past it.
+constexpr double kMinInverseDepth = 1e-3;
 
 ceres::LinearSolverType ToCeres(BaLinearSolver solver, int num_free_poses) {
   switch (solver) {
@@ -40,10 +45,24 @@ ceres::Problem::Options ProblemOptionsNotOwning() {
 struct BundleVariables {
   std::vector<Se3Block> cam_from_world;
   std::vector<Eigen::Vector3d> points_w;
+  // Points with an anchor (PointBlock::anchor_pose, usable: in front of it): [a b rho], the
+  // point rho^-1 (a, b, 1) in the anchor camera; points_w follows them after every pass.
+  std::vector<int> anchor;
+  std::vector<Eigen::Vector3d> inverse_depth;
   std::vector<bool> pose_fixed;
   int scale_gauge_pose = -1;  ///< pose whose translation component scale_gauge_axis is held
   int scale_gauge_axis = 0;
 };
+
+// Puts the anchored points back into world coordinates after a pass moved their anchors or depths.
+void UpdateAnchoredPoints(BundleVariables* v) {
+  for (size_t i = 0; i < v->points_w.size(); ++i) {
+    if (v->anchor[i] < 0) continue;
+    const Eigen::Vector3d& abr = v->inverse_depth[i];
+    const double rho = std::max(abr.z(), kMinInverseDepth);
+    v->points_w[i] = UnpackSe3(v->cam_from_world[v->anchor[i]]).inverse() * (Eigen::Vector3d(abr.x(), abr.y(), 1.0) / rho);
+  }
+}
 
 BundleVariables CopyVariables(const BundleProblem& problem) {
   BundleVariables v;
@@ -51,7 +70,22 @@ BundleVariables CopyVariables(const BundleProblem& problem) {
     v.cam_from_world.push_back(PackSe3(p.world_from_cam.inverse()));
     v.pose_fixed.push_back(p.fixed);
   }
-  for (const PointBlock& p : problem.points) v.points_w.push_back(p.position_w);
+  for (const PointBlock& p : problem.points) {
+    v.points_w.push_back(p.position_w);
+    int anchor = p.fixed ? -1 : p.anchor_pose;
+    Eigen::Vector3d abr = Eigen::Vector3d::Zero();
+    if (anchor >= 0) {
+      const Eigen::Vector3d p_a = problem.poses[anchor].world_from_cam.inverse() * p.position_w;
+      if (p_a.z() > 0.0 && std::isfinite(p_a.z())) {
+        abr = Eigen::Vector3d(p_a.x() / p_a.z(), p_a.y() / p_a.z(), std::max(1.0 / p_a.z(), kMinInverseDepth));
+      } else {
+        anchor = -1;  // behind the anchor (a wide fisheye): stays a free 3D point
+      }
+    }
+    v.anchor.push_back(anchor);
+    v.inverse_depth.push_back(abr);
+  }
+  UpdateAnchoredPoints(&v);
   return v;
 }
 
@@ -134,24 +168,38 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
   std::vector<bool> pose_added(problem.poses.size(), false), point_added(problem.points.size(), false);
   bool any_free_point = false;
   int num_free_poses = 0;
+  const auto add_pose = [&](int index) {
+    if (pose_added[index]) return;
+    pose_added[index] = true;
+    double* pose = v->cam_from_world[index].data();
+    cp.SetManifold(pose, index == v->scale_gauge_pose ? gauge_manifold.get() : manifold.get());
+    if (v->pose_fixed[index]) cp.SetParameterBlockConstant(pose);
+    num_free_poses += v->pose_fixed[index] ? 0 : 1;
+    ordering->AddElementToGroup(pose, 1);
+  };
   for (size_t i = 0; i < problem.observations.size(); ++i) {
     if (!active[i]) continue;
     const Observation& o = problem.observations[i];
     const CameraModel* camera = problem.cameras[problem.poses[o.pose_index].camera_index].get();
     double* pose = v->cam_from_world[o.pose_index].data();
-    double* point = v->points_w[o.point_index].data();
-    cp.AddResidualBlock(ReprojectionCostAnalytic::Create(camera, o.uv_px, o.sigma_px), robust ? huber.get() : nullptr,
-                        pose, point);
-    if (!pose_added[o.pose_index]) {
-      pose_added[o.pose_index] = true;
-      cp.SetManifold(pose, o.pose_index == v->scale_gauge_pose ? gauge_manifold.get() : manifold.get());
-      if (v->pose_fixed[o.pose_index]) cp.SetParameterBlockConstant(pose);
-      num_free_poses += v->pose_fixed[o.pose_index] ? 0 : 1;
-      ordering->AddElementToGroup(pose, 1);
+    ceres::LossFunction* loss = robust ? huber.get() : nullptr;
+    const int anchor = v->anchor[o.point_index];
+    double* point = anchor >= 0 ? v->inverse_depth[o.point_index].data() : v->points_w[o.point_index].data();
+    if (anchor == o.pose_index) {
+      cp.AddResidualBlock(AnchorRayReprojectionError::Create(camera, o.uv_px, o.sigma_px), loss, point);
+    } else if (anchor >= 0) {
+      cp.AddResidualBlock(InverseDepthReprojectionError::Create(camera, o.uv_px, o.sigma_px), loss,
+                          v->cam_from_world[anchor].data(), pose, point);
+      add_pose(anchor);
+      add_pose(o.pose_index);
+    } else {
+      cp.AddResidualBlock(ReprojectionCostAnalytic::Create(camera, o.uv_px, o.sigma_px), loss, pose, point);
+      add_pose(o.pose_index);
     }
     if (!point_added[o.point_index]) {
       point_added[o.point_index] = true;
       if (problem.points[o.point_index].fixed) cp.SetParameterBlockConstant(point);
+      if (anchor >= 0) cp.SetParameterLowerBound(point, 2, kMinInverseDepth);
       any_free_point = any_free_point || !problem.points[o.point_index].fixed;
       ordering->AddElementToGroup(point, 0);
     }
@@ -259,6 +307,7 @@ OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOpt
   bool first_pass = true;
   auto run = [&](bool robust, int iterations) {
     const ceres::Solver::Summary s = RunBundlePass(*problem, active, robust, iterations, options, &v);
+    UpdateAnchoredPoints(&v);
     ok = ok && s.IsSolutionUsable();
     if (first_pass) out.initial_cost = s.initial_cost;
     first_pass = false;

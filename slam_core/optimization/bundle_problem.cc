@@ -42,6 +42,10 @@ std::string ValidateProblem(const BundleProblem& problem) {
   }
   const int num_poses = static_cast<int>(problem.poses.size());
   const int num_points = static_cast<int>(problem.points.size());
+  for (size_t i = 0; i < problem.points.size(); ++i) {
+    const int a = problem.points[i].anchor_pose;
+    if (a < -1 || a >= num_poses) return "point " + std::to_string(i) + " has an anchor pose out of range";
+  }
   for (size_t i = 0; i < problem.observations.size(); ++i) {
     const Observation& o = problem.observations[i];
     if (o.pose_index < 0 || o.pose_index >= num_poses || o.point_index < 0 || o.point_index >= num_points) {

@@ -30,6 +30,9 @@ struct PointBlock {
   std::uint64_t id = 0;
   Eigen::Vector3d position_w = Eigen::Vector3d::Zero();
   bool fixed = false;
+  /// >= 0: optimized as an inverse depth along its ray from this pose (the ray held), for
+  /// points of low parallax whose depth is nearly free; -1: as a free 3D position.
+  int anchor_pose = -1;
 };
 
 /// A keypoint measurement of point `point_index` in pose `pose_index`, in distorted pixels

@@ -85,6 +85,71 @@ class ReprojectionError {
   double inv_sigma_;
 };
 
+/// Reprojection error of a point in inverse-depth coordinates of an anchor camera, for points of
+/// low parallax: block [a b rho] is the point rho^-1 * (a, b, 1) in the anchor. Parameters:
+/// anchor cam_from_world, observer cam_from_world, [a b rho]. The observer sees rho * p_obs =
+/// R_o R_a^T ((a, b, 1) - rho t_a) + rho t_o, which projects like p_obs for rho > 0 and stays
+/// finite at rho -> 0 (a point at infinity), where an XYZ point slides through a camera.
+class InverseDepthReprojectionError {
+ public:
+  InverseDepthReprojectionError(const CameraModel* camera, const Eigen::Vector2d& uv_px, double sigma_px)
+      : camera_(camera), uv_(uv_px), inv_sigma_(1.0 / sigma_px) {}
+
+  template <typename T>
+  bool operator()(const T* anchor_from_world, const T* cam_from_world, const T* abr, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q_a(anchor_from_world);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_a(anchor_from_world + 4);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_o(cam_from_world);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_o(cam_from_world + 4);
+    const Eigen::Matrix<T, 3, 1> ray(abr[0], abr[1], T(1.0));
+    const Eigen::Matrix<T, 3, 1> h_w = q_a.conjugate() * (ray - t_a * abr[2]);
+    const Eigen::Matrix<T, 3, 1> h_o = q_o * h_w + t_o * abr[2];
+    const T p_cam[3] = {h_o[0], h_o[1], h_o[2]};
+    T uv[2];
+    if (!ProjectJet(*camera_, p_cam, uv)) return false;
+    residual[0] = (uv[0] - uv_.x()) * inv_sigma_;
+    residual[1] = (uv[1] - uv_.y()) * inv_sigma_;
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const CameraModel* camera, const Eigen::Vector2d& uv_px, double sigma_px) {
+    return new ceres::AutoDiffCostFunction<InverseDepthReprojectionError, 2, 7, 7, 3>(
+        new InverseDepthReprojectionError(camera, uv_px, sigma_px));
+  }
+
+ private:
+  const CameraModel* camera_;
+  Eigen::Vector2d uv_;
+  double inv_sigma_;
+};
+
+/// The anchor's own view of an inverse-depth point: the ray (a, b, 1), whatever the depth.
+class AnchorRayReprojectionError {
+ public:
+  AnchorRayReprojectionError(const CameraModel* camera, const Eigen::Vector2d& uv_px, double sigma_px)
+      : camera_(camera), uv_(uv_px), inv_sigma_(1.0 / sigma_px) {}
+
+  template <typename T>
+  bool operator()(const T* abr, T* residual) const {
+    const T p_cam[3] = {abr[0], abr[1], T(1.0)};
+    T uv[2];
+    if (!ProjectJet(*camera_, p_cam, uv)) return false;
+    residual[0] = (uv[0] - uv_.x()) * inv_sigma_;
+    residual[1] = (uv[1] - uv_.y()) * inv_sigma_;
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const CameraModel* camera, const Eigen::Vector2d& uv_px, double sigma_px) {
+    return new ceres::AutoDiffCostFunction<AnchorRayReprojectionError, 2, 3>(
+        new AnchorRayReprojectionError(camera, uv_px, sigma_px));
+  }
+
+ private:
+  const CameraModel* camera_;
+  Eigen::Vector2d uv_;
+  double inv_sigma_;
+};
+
 /// Pose-only reprojection error: the 3D point is a constant (tracking, relocalisation).
 class PoseOnlyReprojectionError {
  public:

@@ -25,8 +25,9 @@ struct Snapshot {
 
 // `region`: the free keyframes (null: all, the oldest fixed as the gauge); keyframes that
 // see their points enter fixed.
-Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, double min_parallax_deg,
+Snapshot TakeSnapshot(const ServerMap& smap, const GlobalBaOptions& options,
                       const std::unordered_set<KeyframeId>* region) {
+  const double min_parallax_deg = options.min_parallax_deg;
   Snapshot s;
   s.generation = smap.generation();
   const Map& map = smap.map();
@@ -79,18 +80,26 @@ Snapshot TakeSnapshot(const ServerMap& smap, int min_observations, double min_pa
       o.sigma_px = kf.pyramid().scale[k.level];
       mine.push_back(o);
     }
-    if (static_cast<int>(mine.size()) < min_observations) continue;
+    if (static_cast<int>(mine.size()) < options.min_observations) continue;
     bool low_parallax = false;  // off by default: no per-point work under the map lock then
     if (min_parallax_deg > 0.0) {
       std::vector<Eigen::Vector3d> centres;
       for (const opt::Observation& o : mine) centres.push_back(kfs[o.pose_index]->world_from_cam().translation());
       low_parallax = !HasParallax(mp->position(), centres, min_parallax_deg);
     }
+    int anchor = -1;  // its reference keyframe if that sees it here, else the first that does
+    if (low_parallax && options.low_parallax_inverse_depth) {
+      anchor = mine.front().pose_index;
+      for (const opt::Observation& o : mine) {
+        if (kfs[o.pose_index]->id() == mp->reference_kf()) anchor = o.pose_index;
+      }
+    }
     s.points_low_parallax += low_parallax ? 1 : 0;
     opt::PointBlock p;
     p.id = mp->id().packed();
     p.position_w = mp->position();
-    p.fixed = low_parallax;
+    p.fixed = low_parallax && !options.low_parallax_inverse_depth;
+    p.anchor_pose = anchor;
     s.problem.points.push_back(p);
     s.point_ids.push_back(mp->id());
     s.problem.observations.insert(s.problem.observations.end(), mine.begin(), mine.end());
@@ -224,8 +233,7 @@ GlobalBaReport RunGlobalBundleAdjustment(const std::shared_ptr<ServerMap>& smap,
     const bool regional = options.max_free_keyframes > 0 && !options.region_seeds.empty() &&
                           smap->map().num_keyframes() > static_cast<size_t>(options.max_free_keyframes);
     if (regional) region = CovisibleRegion(smap->map(), options.region_seeds, options.max_free_keyframes);
-    snap = TakeSnapshot(*smap, options.min_observations, options.min_parallax_deg,
-                        regional && !region.empty() ? &region : nullptr);
+    snap = TakeSnapshot(*smap, options, regional && !region.empty() ? &region : nullptr);
   }
   r.snapshot_s = SecondsSince(t0);
   r.keyframes = static_cast<int>(snap.kf_ids.size());

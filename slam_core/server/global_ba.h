@@ -31,6 +31,10 @@ struct GlobalBaOptions {
   /// default: 1 deg helped both real two-agent splits but made fused maps of generated scenes
   /// worse (docs/server.md, "Points of low parallax in the global BA").
   double min_parallax_deg = 0.0;
+  /// Instead of holding them, optimize those points as an inverse depth along their ray from
+  /// their first keyframe: the depth stays free (a far point may go to infinity, not through a
+  /// camera) and the ray moves with that keyframe.
+  bool low_parallax_inverse_depth = false;
   /// Observations whose squared whitened error exceeds this before the BA are left out
   /// (gross outliers: ~40 px at level 0).
   double gross_outlier_chi2 = 1600.0;
@@ -66,7 +70,7 @@ struct GlobalBaReport {
   int free_keyframes = 0;  ///< of `keyframes`, those optimized (all but the fixed periphery of a region)
   int keyframes_added_meanwhile = 0;
   int observations_dropped = 0;  ///< gross outliers left out
-  int points_low_parallax = 0;   ///< of `points`, those held for their parallax (GlobalBaOptions::min_parallax_deg)
+  int points_low_parallax = 0;   ///< of `points`, those held or anchored for their parallax (GlobalBaOptions::min_parallax_deg)
   int iterations = 0;
   int rejected_steps = 0;  ///< of `iterations`, steps the solver threw away
   double initial_rmse_px = 0.0, final_rmse_px = 0.0;  ///< over every observation the BA saw

@@ -306,6 +306,7 @@ void ServerBackend::RunGlobalBa(MapId map) {
     o.linear_solver = options_.optimization.global_ba_solver;
     o.max_free_keyframes = options_.optimization.global_ba_max_free_keyframes;
     o.min_parallax_deg = options_.optimization.global_ba_min_parallax_deg;
+    o.low_parallax_inverse_depth = options_.optimization.global_ba_low_parallax_inverse_depth;
     if (!region.full) o.region_seeds = region.seeds;  // none: the whole map
     r = RunGlobalBundleAdjustment(smap, o, scheduler_.abort_flag());
   }
@@ -339,7 +340,9 @@ void ServerBackend::RunGlobalBa(MapId map) {
   e.keyframes = r.keyframes;
   e.seconds = seconds;
   e.detail = (r.free_keyframes < r.keyframes ? std::to_string(r.free_keyframes) + " of them free (a region), " : "") +
-             std::to_string(r.points) + " points (" + std::to_string(r.points_low_parallax) + " held for their parallax), " + std::to_string(r.iterations) + " iterations (" + std::to_string(r.rejected_steps) + " steps rejected), rmse " +
+             std::to_string(r.points) + " points (" + std::to_string(r.points_low_parallax) +
+                 (options_.optimization.global_ba_low_parallax_inverse_depth ? " as inverse depths" : " held") +
+                 " for their parallax), " + std::to_string(r.iterations) + " iterations (" + std::to_string(r.rejected_steps) + " steps rejected), rmse " +
              std::to_string(r.initial_rmse_px) + " -> " + std::to_string(r.final_rmse_px) + " px (" +
              std::to_string(r.final_inliers) + " of " + std::to_string(r.observations - r.observations_dropped) +
              " observations inliers: " + std::to_string(r.final_inlier_rmse_px) + " px), " +

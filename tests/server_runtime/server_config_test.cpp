@@ -55,6 +55,14 @@ TEST(ServerConfig, DaemonKeysLoadAndAreChecked) {
   std::ofstream(path) << "global_ba_max_free_keyframes: 250\n";
   ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
   EXPECT_EQ(c.global_ba_max_free_keyframes, 250);
+  std::ofstream(path) << "global_ba_min_parallax_deg: 1.5\nglobal_ba_low_parallax_inverse_depth: true\n";
+  ASSERT_TRUE(LoadServerConfig(path, &c, &error)) << error;
+  EXPECT_DOUBLE_EQ(c.global_ba_min_parallax_deg, 1.5);
+  EXPECT_TRUE(c.global_ba_low_parallax_inverse_depth);
+  EXPECT_FALSE(ServerConfig{}.global_ba_low_parallax_inverse_depth) << "off by default";
+  std::ofstream(path) << "global_ba_low_parallax_inverse_depth: perhaps\n";
+  EXPECT_FALSE(LoadServerConfig(path, &c, &error));
+  EXPECT_NE(error.find("global_ba_low_parallax_inverse_depth"), std::string::npos) << error;
   std::ofstream(path) << "global_ba_min_parallax_deg: 90\n";
   EXPECT_FALSE(LoadServerConfig(path, &c, &error));
   EXPECT_NE(error.find("global_ba_min_parallax_deg"), std::string::npos) << error;

@@ -88,6 +88,48 @@ TEST(ReprojectionCost, AnalyticMatchesAutodiffInTangentSpace) {
   }
 }
 
+// An inverse-depth point must reproject exactly where its XYZ twin does, with the Jacobian of
+// numeric differentiation, also for a point far out (inverse depth 1e-3).
+TEST(ReprojectionCost, InverseDepthMatchesXyzAndNumericJacobian) {
+  for (const auto& camera : {testing::MakeTestCamera(), MakeFisheye()}) {
+    for (const double depth : {4.0, 1000.0}) {
+      const SE3 anchor_from_world(Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d(0, 1, 0))),
+                                  Eigen::Vector3d(0.3, -0.1, 0.2));
+      const SE3 cam_from_world(Eigen::Quaterniond(Eigen::AngleAxisd(0.25, Eigen::Vector3d(0.1, 1, 0).normalized())),
+                               Eigen::Vector3d(-0.2, 0.0, 0.4));
+      const Eigen::Vector3d abr(0.1, -0.05, 1.0 / depth);
+      const Eigen::Vector3d X = anchor_from_world.inverse() * (Eigen::Vector3d(abr.x(), abr.y(), 1.0) * depth);
+      const Se3Block a = PackSe3(anchor_from_world), o = PackSe3(cam_from_world);
+      const Eigen::Vector2d z(300, 200);
+      std::unique_ptr<ceres::CostFunction> id(InverseDepthReprojectionError::Create(camera.get(), z, 1.5));
+      std::unique_ptr<ceres::CostFunction> xyz(ReprojectionError::Create(camera.get(), z, 1.5));
+      std::unique_ptr<ceres::CostFunction> nd(
+          new ceres::NumericDiffCostFunction<InverseDepthReprojectionError, ceres::CENTRAL, 2, 7, 7, 3>(
+              new InverseDepthReprojectionError(camera.get(), z, 1.5)));
+      const double* params[3] = {a.data(), o.data(), abr.data()};
+      const double* xyz_params[2] = {o.data(), X.data()};
+      double r_id[2], r_xyz[2], r_nd[2], ja0[14], ja1[14], ja2[6], jn0[14], jn1[14], jn2[6];
+      double* ja[3] = {ja0, ja1, ja2};
+      double* jn[3] = {jn0, jn1, jn2};
+      ASSERT_TRUE(id->Evaluate(params, r_id, ja));
+      ASSERT_TRUE(xyz->Evaluate(xyz_params, r_xyz, nullptr));
+      ASSERT_TRUE(nd->Evaluate(params, r_nd, jn));
+      for (int k = 0; k < 2; ++k) EXPECT_NEAR(r_id[k], r_xyz[k], 1e-6 * (1.0 + std::abs(r_xyz[k]))) << depth;
+      for (int k = 0; k < 14; ++k) EXPECT_NEAR(ja0[k], jn0[k], 1e-4 * (1.0 + std::abs(jn0[k]))) << depth;
+      for (int k = 0; k < 14; ++k) EXPECT_NEAR(ja1[k], jn1[k], 1e-4 * (1.0 + std::abs(jn1[k]))) << depth;
+      for (int k = 0; k < 6; ++k) EXPECT_NEAR(ja2[k], jn2[k], 1e-4 * (1.0 + std::abs(jn2[k]))) << depth;
+      // The anchor's own view depends on the ray only.
+      std::unique_ptr<ceres::CostFunction> own(AnchorRayReprojectionError::Create(camera.get(), z, 1.5));
+      std::unique_ptr<ceres::CostFunction> own_xyz(ReprojectionError::Create(camera.get(), z, 1.5));
+      const double* own_params[1] = {abr.data()};
+      const double* own_xyz_params[2] = {a.data(), X.data()};
+      ASSERT_TRUE(own->Evaluate(own_params, r_id, nullptr));
+      ASSERT_TRUE(own_xyz->Evaluate(own_xyz_params, r_xyz, nullptr));
+      for (int k = 0; k < 2; ++k) EXPECT_NEAR(r_id[k], r_xyz[k], 1e-6 * (1.0 + std::abs(r_xyz[k]))) << depth;
+    }
+  }
+}
+
 struct PoseOnlyCase {
   std::vector<PointObservation> obs;
   std::vector<bool> is_outlier;
@@ -262,6 +304,37 @@ TEST(GlobalBundleAdjustment, ConvergesToGroundTruth) {
   EXPECT_LT(e.max_rotation_deg, 0.1);
   EXPECT_LT(s.final_cost, 0.01 * s.initial_cost);
   EXPECT_GT(s.num_inliers, 0.9 * p.observations.size());
+}
+
+// Every point as an inverse depth from the first keyframe that sees it: the same optimum.
+TEST(GlobalBundleAdjustment, InverseDepthPointsConvergeToGroundTruth) {
+  SceneOptions so;
+  so.num_keyframes = 30;
+  so.num_points = 3000;
+  so.pixel_noise_px = 0.5;
+  so.seed = 7;
+  testing::Scene scene = MakeScene(so);
+  BundleProblem& p = scene.problem;
+  p.poses[0].fixed = true;
+  std::mt19937 rng(29);
+  testing::Perturb(&p, 1.0, 0.05, 0.1, &rng);
+  for (const Observation& o : p.observations) {
+    int& anchor = p.points[o.point_index].anchor_pose;
+    anchor = anchor < 0 ? o.pose_index : std::min(anchor, o.pose_index);
+  }
+  BundleAdjusterOptions options = GlobalBaDefaults();
+  options.robust_iterations = 30;
+  const OptimizationSummary s = GlobalBundleAdjustment(&p, options);
+  ASSERT_TRUE(s.usable) << s.message;
+  std::vector<SE3> after;
+  for (const PoseBlock& pose : p.poses) after.push_back(pose.world_from_cam);
+  const testing::PoseErrors e = testing::AlignedPoseErrors(after, scene.gt_world_from_cam);
+  EXPECT_LT(e.max_position_m, 0.01) << "rmse " << e.rmse_position_m;
+  EXPECT_LT(e.max_rotation_deg, 0.1);
+  EXPECT_GT(s.num_inliers, 0.9 * p.observations.size());
+  EXPECT_LT(ReprojectionRmsePx(p), 0.8) << "the points were written back where the BA left them";
+  p.points[0].anchor_pose = static_cast<int>(p.poses.size());
+  EXPECT_NE(ValidateProblem(p).find("anchor"), std::string::npos);
 }
 
 // Collaborative SLAM: keyframes of different agents carry different camera models.

@@ -166,8 +166,10 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
       if (obs.size() < 2) continue;
       std::vector<Eigen::Vector3d> centres;
       for (const opt::Observation& o : obs) centres.push_back(p.poses[o.pose_index].world_from_cam.translation());
-      const bool low_parallax = !HasParallax(mp->position(), centres, options.min_parallax_deg);  // held, as the server's BA
-      p.points.push_back({mp->id().packed(), mp->position(), low_parallax});
+      const bool low_parallax = !HasParallax(mp->position(), centres, options.min_parallax_deg);  // as the server's BA
+      const bool inverse_depth = low_parallax && options.low_parallax_inverse_depth;
+      p.points.push_back({mp->id().packed(), mp->position(), low_parallax && !inverse_depth,
+                          inverse_depth ? obs.front().pose_index : -1});
       p.observations.insert(p.observations.end(), obs.begin(), obs.end());
     }
     DropGrossOutliers(&p, options);
@@ -271,6 +273,8 @@ int main(int argc, char** argv) {
   app.add_flag("--skip-registration", skip_registration, "skip the registration table");
   app.add_option("--ba-sizes", ba_sizes, "keyframe counts of the global BA table")->delimiter(',')->capture_default_str();
   app.add_option("--ba-iterations", ba.iterations, "iterations of each pass of the global BA")->capture_default_str();
+  app.add_flag("--ba-inverse-depth", ba.low_parallax_inverse_depth,
+               "points under --ba-min-parallax move as inverse depths from their first keyframe instead of being held");
   app.add_option("--ba-min-parallax", ba.min_parallax_deg, "points seen under less parallax [deg] are held fixed in the global BA (0: none)")->capture_default_str();
   app.add_option("--ba-threads", ba.threads, "Ceres threads of the global BA")->capture_default_str();
   std::vector<int> regions;

@@ -178,6 +178,37 @@ TEST(GlobalBa, PointsSeenUnderLessThanTheMinimumParallaxAreHeld) {
   for (int k = kPerturbedFirst; k <= kPerturbedLast; ++k) EXPECT_LT(PositionError(c, k), 0.01) << k;
 }
 
+TEST(GlobalBa, PointsOfLowParallaxCanMoveAsInverseDepthsInstead) {
+  // At 90 deg every corridor point is anchored in a keyframe as an inverse depth: free, unlike
+  // a held point, so the pushed keyframes come back as with free 3D points, and the points are
+  // written back where the BA left them (every observation fitted to a fraction of a pixel).
+  MapStack stack{MapOptions{}};
+  Corridor c = BuildCorridor(&stack);
+  GlobalBaOptions o;
+  o.threads = 1;
+  o.min_parallax_deg = 90.0;
+  o.low_parallax_inverse_depth = true;
+  // Twenty points seen from three keyframes or more start 10 cm too deep along their rays: free
+  // in depth, they come back (a held point would stay off).
+  std::unordered_map<MapPointId, Eigen::Vector3d> truth;
+  for (const auto& mp : c.map->map().map_points()) {
+    if (truth.size() >= 20 || mp->observations().size() < 3) continue;
+    const auto ref = c.map->map().keyframe(mp->reference_kf());
+    if (!ref) continue;
+    truth.emplace(mp->id(), mp->position());
+    mp->SetPosition(mp->position() + 0.1 * (mp->position() - ref->world_from_cam().translation()).normalized());
+  }
+  ASSERT_EQ(truth.size(), 20u);
+  const GlobalBaReport r = RunGlobalBundleAdjustment(c.map, o, nullptr);
+  ASSERT_EQ(r.outcome, GlobalBaReport::Outcome::kApplied) << r.message;
+  EXPECT_EQ(r.points_low_parallax, r.points);
+  for (const auto& [id, position] : truth) EXPECT_LT((c.map->map().map_point(id)->position() - position).norm(), 0.01);
+  EXPECT_EQ(r.final_inliers, r.observations - r.observations_dropped);
+  EXPECT_LT(r.final_inlier_rmse_px, 0.05);
+  EXPECT_GT(r.initial_rmse_px, 1.0);
+  for (int k = kPerturbedFirst; k <= kPerturbedLast; ++k) EXPECT_LT(PositionError(c, k), 0.01) << k;
+}
+
 TEST(GlobalBa, APartThatCameInShortComesBackToOneScaleAndItsAnchorsStretchWithIt) {
   MapStack stack{MapOptions{}};
   Corridor c = BuildCorridor(&stack, Distortion::kShortSecondHalf);
