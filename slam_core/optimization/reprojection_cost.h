@@ -46,6 +46,16 @@ bool ProjectJet(const CameraModel& camera, const ceres::Jet<double, N>* p_cam,
   return true;
 }
 
+/// (projection of p_cam - z) / sigma; false if the camera model rejects the point.
+template <typename T>
+bool WhitenedResidual(const CameraModel& camera, const T* p_cam, const Eigen::Vector2d& z, double inv_sigma, T* residual) {
+  T uv[2];
+  if (!ProjectJet(camera, p_cam, uv)) return false;
+  residual[0] = (uv[0] - z.x()) * inv_sigma;
+  residual[1] = (uv[1] - z.y()) * inv_sigma;
+  return true;
+}
+
 /// Rotates and translates a world point into the camera: p_c = q * p_w + t.
 template <typename T, typename P>
 void TransformToCamera(const T* cam_from_world, const P* point_w, T* p_cam) {
@@ -65,11 +75,7 @@ class ReprojectionError {
   bool operator()(const T* cam_from_world, const T* point_w, T* residual) const {
     T p_cam[3];
     TransformToCamera(cam_from_world, point_w, p_cam);
-    T uv[2];
-    if (!ProjectJet(*camera_, p_cam, uv)) return false;
-    residual[0] = (uv[0] - uv_.x()) * inv_sigma_;
-    residual[1] = (uv[1] - uv_.y()) * inv_sigma_;
-    return true;
+    return WhitenedResidual(*camera_, p_cam, uv_, inv_sigma_, residual);
   }
 
   /// The camera must outlive the cost function (the Ceres problem).
@@ -105,11 +111,7 @@ class InverseDepthReprojectionError {
     const Eigen::Matrix<T, 3, 1> h_w = q_a.conjugate() * (ray - t_a * abr[2]);
     const Eigen::Matrix<T, 3, 1> h_o = q_o * h_w + t_o * abr[2];
     const T p_cam[3] = {h_o[0], h_o[1], h_o[2]};
-    T uv[2];
-    if (!ProjectJet(*camera_, p_cam, uv)) return false;
-    residual[0] = (uv[0] - uv_.x()) * inv_sigma_;
-    residual[1] = (uv[1] - uv_.y()) * inv_sigma_;
-    return true;
+    return WhitenedResidual(*camera_, p_cam, uv_, inv_sigma_, residual);
   }
 
   static ceres::CostFunction* Create(const CameraModel* camera, const Eigen::Vector2d& uv_px, double sigma_px) {
@@ -132,11 +134,7 @@ class AnchorRayReprojectionError {
   template <typename T>
   bool operator()(const T* abr, T* residual) const {
     const T p_cam[3] = {abr[0], abr[1], T(1.0)};
-    T uv[2];
-    if (!ProjectJet(*camera_, p_cam, uv)) return false;
-    residual[0] = (uv[0] - uv_.x()) * inv_sigma_;
-    residual[1] = (uv[1] - uv_.y()) * inv_sigma_;
-    return true;
+    return WhitenedResidual(*camera_, p_cam, uv_, inv_sigma_, residual);
   }
 
   static ceres::CostFunction* Create(const CameraModel* camera, const Eigen::Vector2d& uv_px, double sigma_px) {
@@ -161,11 +159,7 @@ class PoseOnlyReprojectionError {
   bool operator()(const T* cam_from_world, T* residual) const {
     T p_cam[3];
     TransformToCamera(cam_from_world, point_w_.data(), p_cam);
-    T uv[2];
-    if (!ProjectJet(*camera_, p_cam, uv)) return false;
-    residual[0] = (uv[0] - uv_.x()) * inv_sigma_;
-    residual[1] = (uv[1] - uv_.y()) * inv_sigma_;
-    return true;
+    return WhitenedResidual(*camera_, p_cam, uv_, inv_sigma_, residual);
   }
 
   static ceres::CostFunction* Create(const CameraModel* camera, const Eigen::Vector3d& point_w,

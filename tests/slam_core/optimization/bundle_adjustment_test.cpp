@@ -16,6 +16,13 @@ using testing::MakeScene;
 using testing::RotationAngleDeg;
 using testing::SceneOptions;
 
+// The problem's poses against the scene's truth after a Sim(3) alignment.
+testing::PoseErrors AlignedErrorsOf(const BundleProblem& p, const testing::Scene& scene) {
+  std::vector<SE3> poses;
+  for (const PoseBlock& pose : p.poses) poses.push_back(pose.world_from_cam);
+  return testing::AlignedPoseErrors(poses, scene.gt_world_from_cam);
+}
+
 std::shared_ptr<const CameraModel> MakeFisheye() {
   CameraIntrinsics k;
   k.type = CameraType::kFisheyeEquidistant;
@@ -296,9 +303,7 @@ TEST(GlobalBundleAdjustment, ConvergesToGroundTruth) {
   options.robust_iterations = 30;
   const OptimizationSummary s = GlobalBundleAdjustment(&p, options);
   ASSERT_TRUE(s.usable) << s.message;
-  std::vector<SE3> after;
-  for (const PoseBlock& pose : p.poses) after.push_back(pose.world_from_cam);
-  const testing::PoseErrors e = testing::AlignedPoseErrors(after, scene.gt_world_from_cam);
+  const testing::PoseErrors e = AlignedErrorsOf(p, scene);
   EXPECT_GT(e0.max_position_m, 0.05);
   EXPECT_LT(e.max_position_m, 0.01) << "rmse " << e.rmse_position_m;
   EXPECT_LT(e.max_rotation_deg, 0.1);
@@ -310,7 +315,6 @@ TEST(GlobalBundleAdjustment, ConvergesToGroundTruth) {
 TEST(GlobalBundleAdjustment, InverseDepthPointsConvergeToGroundTruth) {
   SceneOptions so;
   so.num_keyframes = 30;
-  so.num_points = 3000;
   so.pixel_noise_px = 0.5;
   so.seed = 7;
   testing::Scene scene = MakeScene(so);
@@ -326,9 +330,7 @@ TEST(GlobalBundleAdjustment, InverseDepthPointsConvergeToGroundTruth) {
   options.robust_iterations = 30;
   const OptimizationSummary s = GlobalBundleAdjustment(&p, options);
   ASSERT_TRUE(s.usable) << s.message;
-  std::vector<SE3> after;
-  for (const PoseBlock& pose : p.poses) after.push_back(pose.world_from_cam);
-  const testing::PoseErrors e = testing::AlignedPoseErrors(after, scene.gt_world_from_cam);
+  const testing::PoseErrors e = AlignedErrorsOf(p, scene);
   EXPECT_LT(e.max_position_m, 0.01) << "rmse " << e.rmse_position_m;
   EXPECT_LT(e.max_rotation_deg, 0.1);
   EXPECT_GT(s.num_inliers, 0.9 * p.observations.size());
@@ -366,9 +368,7 @@ TEST(GlobalBundleAdjustment, MixedPinholeAndFisheyeKeyframes) {
   options.robust_iterations = 30;
   const OptimizationSummary s = GlobalBundleAdjustment(&p, options);
   ASSERT_TRUE(s.usable) << s.message;
-  std::vector<SE3> after;
-  for (const PoseBlock& pose : p.poses) after.push_back(pose.world_from_cam);
-  const testing::PoseErrors e = testing::AlignedPoseErrors(after, scene.gt_world_from_cam);
+  const testing::PoseErrors e = AlignedErrorsOf(p, scene);
   EXPECT_LT(e.max_position_m, 0.01);
   EXPECT_LT(e.max_rotation_deg, 0.1);
   EXPECT_LT(ReprojectionRmsePx(p), 0.8);  // 0.5 px noise per axis -> ~0.7 px RMSE
