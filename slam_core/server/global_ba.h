@@ -31,9 +31,9 @@ struct GlobalBaOptions {
   /// default: 1 deg helped both real two-agent splits but made fused maps of generated scenes
   /// worse (docs/server.md, "Points of low parallax in the global BA").
   double min_parallax_deg = 0.0;
-  /// Instead of holding them, optimize those points as an inverse depth along their ray from
-  /// their first keyframe: the depth stays free (a far point may go to infinity, not through a
-  /// camera) and the ray moves with that keyframe.
+  /// Instead of holding them, optimize those points in inverse-depth coordinates of their
+  /// reference keyframe (or the first keyframe here that sees them): still free, but a far point
+  /// may go to infinity instead of through a camera, and no step is thrown away for it.
   bool low_parallax_inverse_depth = false;
   /// Observations whose squared whitened error exceeds this before the BA are left out
   /// (gross outliers: ~40 px at level 0).

@@ -115,7 +115,7 @@ struct OptimizationJobOptions {
   int global_ba_max_free_keyframes = 0;
   /// Points seen under less parallax are held in a global BA (GlobalBaOptions::min_parallax_deg; 0: none).
   double global_ba_min_parallax_deg = 0.0;
-  /// Those points move as inverse depths from their first keyframe instead (GlobalBaOptions::low_parallax_inverse_depth).
+  /// Those points move as inverse depths from their reference keyframe instead (GlobalBaOptions::low_parallax_inverse_depth).
   bool global_ba_low_parallax_inverse_depth = false;
   /// After a global BA of a map that took t seconds, the next one of that map waits
   /// factor * t (threaded runs): with many agents, loops and fusions come faster than a

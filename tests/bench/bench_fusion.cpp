@@ -210,7 +210,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 89.9));
   app.add_flag("--ba-inverse-depth", replay.server.optimization.global_ba_low_parallax_inverse_depth,
-               "points under --ba-min-parallax move as inverse depths from their first keyframe instead of being held");
+               "points under --ba-min-parallax move as inverse depths from their reference keyframe instead of being held");
   app.add_option("--ba-max-free", replay.server.optimization.global_ba_max_free_keyframes,
                  "global BA after a loop or fusion in a map above this many keyframes: only the region around it (0: whole)")
       ->capture_default_str()

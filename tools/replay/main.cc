@@ -189,7 +189,7 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 89.9));
   app->add_flag("--ba-inverse-depth", a->replay.server.optimization.global_ba_low_parallax_inverse_depth,
-                "points under --ba-min-parallax move as inverse depths from their first keyframe instead of being held");
+                "points under --ba-min-parallax move as inverse depths from their reference keyframe instead of being held");
   app->add_flag("--no-final-ba", a->no_final_ba,
                 "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
   app->add_option("--load-map", a->load_map, "start from a saved map stack");
