@@ -8,6 +8,7 @@ std::string VocabularyOptions::Validate() const {
   if (branching < 2 || branching > 64) return "branching must be in [2, 64]";
   if (levels < 1 || levels > 10) return "levels must be in [1, 10]";
   if (max_iterations < 1) return "max_iterations must be >= 1";
+  if (threads < 1 || threads > 256) return "threads must be in [1, 256]";
   double leaves = 1.0;
   for (int l = 0; l < levels; ++l) leaves *= branching;
   if (leaves > 2e8) return "branching^levels must be <= 2e8 words";

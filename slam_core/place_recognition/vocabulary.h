@@ -25,6 +25,10 @@ struct VocabularyOptions {
   /// still count for the IDF weights). 0 = use all.
   std::size_t max_descriptors = 1'000'000;
   std::uint64_t seed = 1;      ///< seeds k-means++ and subsampling: same input + seed = same tree
+  /// Threads for the distance and majority passes over big nodes (>= 1). The tree is the
+  /// same for any count: each pass splits its descriptors into fixed ranges whose results
+  /// are exact integers merged in order.
+  int threads = 1;
 
   /// Empty if usable, else what is wrong ("branching must be in [2, 64]").
   std::string Validate() const;

@@ -1,11 +1,16 @@
 // Hierarchical k-majority clustering (k-medians in Hamming space) with k-means++ seeding.
 // Each node's random stream is seeded from (seed, node id), so the tree only depends on the
 // input and the seed. Clustering works in place on one index array partitioned per child.
+// Big nodes split their distance and majority passes over options.threads threads; what the
+// parts return are exact integers (squared Hamming distances in doubles stay below 2^53),
+// merged in part order, so the tree does not depend on the thread count.
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "slam_core/place_recognition/vocabulary.h"
 
@@ -30,20 +35,70 @@ class Rng {
   std::uint64_t state_;
 };
 
-OrbDescriptor Majority(const std::vector<const OrbDescriptor*>& data, const std::uint32_t* begin,
-                       const std::uint32_t* end) {
-  std::array<std::uint32_t, 256> counts{};
+// Nodes with fewer descriptors than this run on the calling thread: starting a thread costs
+// more than their pass.
+constexpr std::size_t kMinParallelDescriptors = 4096;
+
+// Runs fn(part, begin, end) over [0, n) cut into `parts` contiguous ranges, part 0 on the
+// calling thread; returns when all have finished.
+template <typename Fn>
+void ForParts(std::size_t parts, std::size_t n, Fn&& fn) {
+  std::vector<std::thread> workers;
+  for (std::size_t p = 1; p < parts; ++p) {
+    workers.emplace_back([&fn, p, parts, n] { fn(p, n * p / parts, n * (p + 1) / parts); });
+  }
+  fn(0, 0, n / parts);
+  for (auto& w : workers) w.join();
+}
+
+using BitCounts = std::array<std::uint32_t, 256>;
+
+// Adds how often each of the 256 bits is set in data[begin..end). Bigger sets count byte
+// values first (32 increments per descriptor instead of 256 bit tests) and expand the 32
+// byte histograms once at the end.
+void AddBitCounts(const std::vector<const OrbDescriptor*>& data, const std::uint32_t* begin,
+                  const std::uint32_t* end, BitCounts* counts) {
+  if (end - begin < 512) {
+    for (const std::uint32_t* it = begin; it != end; ++it) {
+      const OrbDescriptor& d = *data[*it];
+      for (int byte = 0; byte < 32; ++byte) {
+        const std::uint8_t b = d[byte];
+        for (int bit = 0; bit < 8; ++bit) (*counts)[byte * 8 + bit] += (b >> (7 - bit)) & 1u;
+      }
+    }
+    return;
+  }
+  std::vector<std::uint32_t> histogram(32 * 256, 0);
   for (const std::uint32_t* it = begin; it != end; ++it) {
     const OrbDescriptor& d = *data[*it];
-    for (int byte = 0; byte < 32; ++byte) {
-      const std::uint8_t b = d[byte];
-      for (int bit = 0; bit < 8; ++bit) counts[byte * 8 + bit] += (b >> (7 - bit)) & 1u;
+    for (int byte = 0; byte < 32; ++byte) ++histogram[byte * 256 + d[byte]];
+  }
+  for (int byte = 0; byte < 32; ++byte) {
+    for (int value = 0; value < 256; ++value) {
+      const std::uint32_t c = histogram[byte * 256 + value];
+      if (c == 0) continue;
+      for (int bit = 0; bit < 8; ++bit) {
+        if ((value >> (7 - bit)) & 1) (*counts)[byte * 8 + bit] += c;
+      }
     }
+  }
+}
+
+// Bitwise majority of data[begin..end) (ties give 0). Counts are integers, so splitting the
+// range over threads gives the same centre.
+OrbDescriptor Majority(const std::vector<const OrbDescriptor*>& data, const std::uint32_t* begin,
+                       const std::uint32_t* end, std::size_t parts) {
+  std::vector<BitCounts> counts(parts, BitCounts{});
+  ForParts(parts, static_cast<std::size_t>(end - begin), [&](std::size_t p, std::size_t b, std::size_t e) {
+    AddBitCounts(data, begin + b, begin + e, &counts[p]);
+  });
+  for (std::size_t p = 1; p < parts; ++p) {
+    for (int i = 0; i < 256; ++i) counts[0][i] += counts[p][i];
   }
   const std::size_t n = static_cast<std::size_t>(end - begin);
   OrbDescriptor out{};
   for (int i = 0; i < 256; ++i) {
-    if (2 * counts[i] > n) out[i / 8] |= static_cast<std::uint8_t>(1u << (7 - i % 8));
+    if (2 * counts[0][i] > n) out[i / 8] |= static_cast<std::uint8_t>(1u << (7 - i % 8));
   }
   return out;
 }
@@ -141,29 +196,33 @@ class VocabularyTrainer {
     const std::size_t k = static_cast<std::size_t>(options_.branching);
     Rng rng(options_.seed * 0x100000001b3ull + parent * 0x9e3779b97f4a7c15ull + 1);
     SeedPlusPlus(begin, n, k, &rng, centres);
+    const std::size_t parts = PartsFor(n);
     std::vector<std::uint16_t> assign(n, 0xffff);
     for (int iter = 0; iter < options_.max_iterations; ++iter) {
-      bool changed = false;
-      for (std::size_t i = 0; i < n; ++i) {
-        const OrbDescriptor& d = *data_[begin[i]];
-        int best_d = 257;
-        std::uint16_t best = 0;
-        for (std::size_t c = 0; c < centres->size(); ++c) {
-          const int dist = HammingDistance(d, (*centres)[c]);
-          if (dist < best_d) {
-            best_d = dist;
-            best = static_cast<std::uint16_t>(c);
+      std::vector<char> changed(parts, 0);
+      ForParts(parts, n, [&](std::size_t p, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          const OrbDescriptor& d = *data_[begin[i]];
+          int best_d = 257;
+          std::uint16_t best = 0;
+          for (std::size_t c = 0; c < centres->size(); ++c) {
+            const int dist = HammingDistance(d, (*centres)[c]);
+            if (dist < best_d) {
+              best_d = dist;
+              best = static_cast<std::uint16_t>(c);
+            }
           }
+          if (assign[i] != best) changed[p] = 1;
+          assign[i] = best;
         }
-        if (assign[i] != best) changed = true;
-        assign[i] = best;
-      }
+      });
       PartitionByCluster(begin, &assign, centres->size(), bounds);
-      if (!changed || iter + 1 == options_.max_iterations) break;
+      const bool any_changed = std::find(changed.begin(), changed.end(), 1) != changed.end();
+      if (!any_changed || iter + 1 == options_.max_iterations) break;
       for (std::size_t c = 0; c < centres->size(); ++c) {
-        if ((*bounds)[c + 1] > (*bounds)[c]) {
-          (*centres)[c] = Majority(data_, (*bounds)[c], (*bounds)[c + 1]);
-        }
+        const std::uint32_t* b = (*bounds)[c];
+        const std::uint32_t* e = (*bounds)[c + 1];
+        if (e > b) (*centres)[c] = Majority(data_, b, e, PartsFor(static_cast<std::size_t>(e - b)));
       }
     }
     // Drop empty clusters.
@@ -187,11 +246,14 @@ class VocabularyTrainer {
     const int trials = 2 + static_cast<int>(std::log(static_cast<double>(k)));
     centres->clear();
     centres->push_back(*data_[begin[rng->Uniform(n)]]);
-    std::vector<double> min_d2(n), trial_d2(n), best_d2(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double d = HammingDistance(*data_[begin[i]], centres->back());
-      min_d2[i] = d * d;
-    }
+    const std::size_t parts = PartsFor(n);
+    std::vector<double> min_d2(n), trial_d2(n), best_d2(n), part_potential(parts);
+    ForParts(parts, n, [&](std::size_t, std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        const double d = HammingDistance(*data_[begin[i]], centres->back());
+        min_d2[i] = d * d;
+      }
+    });
     while (centres->size() < k) {
       double total = 0.0;
       for (double v : min_d2) total += v;
@@ -201,12 +263,17 @@ class VocabularyTrainer {
       for (int t = 0; t < trials; ++t) {
         const std::size_t pick = SampleD2(min_d2, total, rng);
         const OrbDescriptor& c = *data_[begin[pick]];
+        ForParts(parts, n, [&](std::size_t p, std::size_t b, std::size_t e) {
+          double sum = 0.0;
+          for (std::size_t i = b; i < e; ++i) {
+            const double d = HammingDistance(*data_[begin[i]], c);
+            trial_d2[i] = std::min(min_d2[i], d * d);
+            sum += trial_d2[i];
+          }
+          part_potential[p] = sum;
+        });
         double potential = 0.0;
-        for (std::size_t i = 0; i < n; ++i) {
-          const double d = HammingDistance(*data_[begin[i]], c);
-          trial_d2[i] = std::min(min_d2[i], d * d);
-          potential += trial_d2[i];
-        }
+        for (double v : part_potential) potential += v;
         if (best_potential < 0.0 || potential < best_potential) {
           best_potential = potential;
           best_pick = pick;
@@ -216,6 +283,10 @@ class VocabularyTrainer {
       centres->push_back(*data_[begin[best_pick]]);
       min_d2.swap(best_d2);
     }
+  }
+
+  std::size_t PartsFor(std::size_t n) const {
+    return n >= kMinParallelDescriptors ? static_cast<std::size_t>(std::max(options_.threads, 1)) : 1;
   }
 
   static std::size_t SampleD2(const std::vector<double>& d2, double total, Rng* rng) {

@@ -1,5 +1,6 @@
 #include "slam_core/solvers/similarity.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <random>
@@ -80,10 +81,12 @@ std::optional<Sim3> AlignUmeyama(const std::vector<Eigen::Vector3d>& points_a,
     B.col(k) = points_b[i];
   }
   // Reject collinear / coincident sets: the second singular value of the centred cloud
-  // must not vanish relative to the first, or the rotation about the line is free.
+  // must not vanish relative to the first, or the rotation about the line is free. The
+  // singular values squared are the eigenvalues of its 3x3 scatter matrix (ascending); a
+  // fixed-size solver, because Eigen's SVD of a 3xN matrix costs ~8 s of compile time.
   const Eigen::Matrix3Xd Ac = A.colwise() - A.rowwise().mean();
-  const Eigen::Vector3d sv = Eigen::JacobiSVD<Eigen::Matrix3Xd>(Ac).singularValues();
-  if (!(sv(0) > 1e-12) || sv(1) < 1e-6 * sv(0)) return std::nullopt;
+  const Eigen::Vector3d sv2 = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(Ac * Ac.transpose()).eigenvalues();
+  if (!(sv2(2) > 1e-24) || sv2(1) < 1e-12 * sv2(2)) return std::nullopt;
   const Eigen::Matrix4d T = Eigen::umeyama(A, B, !fix_scale);
   if (!T.allFinite()) return std::nullopt;
   const Eigen::Matrix3d sR = T.topLeftCorner<3, 3>();

@@ -1,6 +1,8 @@
 #include "tools/vocab/default_vocabulary.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <thread>
 
 #include "slam_core/place_recognition/vocabulary_io.h"
 
@@ -62,7 +64,9 @@ std::optional<Vocabulary> LoadOrTrainDefaultVocabulary(const std::string& cache_
     if (error) *error = problem;
     return std::nullopt;
   }
-  Vocabulary vocab = Vocabulary::Train(images, spec.vocabulary);
+  VocabularyOptions threaded = spec.vocabulary;  // same tree for any thread count
+  threaded.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  Vocabulary vocab = Vocabulary::Train(images, threaded);
   problem = SaveVocabularyFile(vocab, cache_path);
   if (!problem.empty()) {
     if (error) *error = problem;

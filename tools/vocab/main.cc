@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <thread>
 #include <opencv2/imgcodecs.hpp>
 
 #include "slam_core/common/stopwatch.h"
@@ -76,8 +77,11 @@ int TrainAndSave(const ccm::vocab::TrainingSources& sources, const ccm::vocab::C
   if (images.empty()) return 1;
   const auto t1 = Clock::now();
   ProgressLine line;
+  ccm::VocabularyOptions threaded = options;  // same tree for any thread count
+  threaded.threads = collect.threads > 0 ? collect.threads
+                                         : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const ccm::Vocabulary vocab =
-      ccm::Vocabulary::Train(images, options, [&line](const ccm::TrainingProgress& p) {
+      ccm::Vocabulary::Train(images, threaded, [&line](const ccm::TrainingProgress& p) {
         if (!line.Due(p.fraction >= 1.0)) return;
         std::fprintf(stderr, "\r%-10s %5.1f %%", p.stage.c_str(), 100.0 * p.fraction);
       });
@@ -242,7 +246,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   t->add_option("--features", train.features, "ORB features per image")->capture_default_str();
   t->add_option("--seed", train.vocab.seed, "random seed")->capture_default_str();
-  t->add_option("--threads", train.threads, "threads rendering / extracting ORB (0 = all cores; same result)")
+  t->add_option("--threads", train.threads, "threads rendering, extracting ORB and clustering (0 = all cores; same result)")
       ->capture_default_str();
 
   std::string default_data, default_out;
@@ -252,7 +256,7 @@ int main(int argc, char** argv) {
                 "ablation: also train on the real excerpts in this folder (kitti07_first160, ntsd150_euroc); "
                 "not the build's default");
   d->add_option("--out", default_out, "output vocabulary file")->required();
-  d->add_option("--threads", default_threads, "threads rendering / extracting ORB (0 = all cores; same result)")
+  d->add_option("--threads", default_threads, "threads rendering, extracting ORB and clustering (0 = all cores; same result)")
       ->capture_default_str();
 
   std::string info_path;

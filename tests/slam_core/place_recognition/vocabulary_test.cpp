@@ -2,6 +2,7 @@
 // direct index, binary file round trip and rejection of damaged files.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -107,6 +108,45 @@ TEST(VocabularyTest, DeterministicAndProgressReported) {
   options.max_descriptors = 500;
   const Vocabulary c = Vocabulary::Train(data.images, options);
   EXPECT_GT(c.num_words(), 10u);
+}
+
+// Big nodes split their passes over threads (byte histograms for the majority): the tree must
+// be the one of a single thread, and each word's centre the bitwise majority of its members.
+TEST(VocabularyTest, ThreadsGiveTheSameTreeAndCentresAreMajorities) {
+  const ClusteredData data = MakeClusters(6, 200, 60, 20, 9);  // 12,000 descriptors, ~2,000 per cluster
+  VocabularyOptions options;
+  options.branching = 6;
+  options.levels = 1;
+  const Vocabulary one = Vocabulary::Train(data.images, options);
+  options.threads = 3;
+  const Vocabulary three = Vocabulary::Train(data.images, options);
+  EXPECT_EQ(SerializeVocabulary(one), SerializeVocabulary(three));
+  ASSERT_EQ(one.num_words(), 6u);
+  std::vector<std::array<int, 256>> ones(6, std::array<int, 256>{});
+  std::vector<int> members(6, 0);
+  for (const auto& image : data.images) {
+    for (const auto& d : image) {
+      const WordId w = one.Transform(d);
+      ++members[w];
+      for (int bit = 0; bit < 256; ++bit) ones[w][bit] += (d[bit / 8] >> (7 - bit % 8)) & 1;
+    }
+  }
+  for (WordId w = 0; w < 6; ++w) {
+    ASSERT_GT(members[w], 1000);
+    OrbDescriptor majority{};
+    for (int bit = 0; bit < 256; ++bit) {
+      if (2 * ones[w][bit] > members[w]) majority[bit / 8] |= static_cast<uint8_t>(1u << (7 - bit % 8));
+    }
+    EXPECT_EQ(one.nodes()[one.WordNode(w)].descriptor, majority) << "word " << w;
+  }
+  // A deeper tree too (its root's passes are split, the smaller nodes below are not).
+  options.levels = 3;
+  options.threads = 1;
+  const Vocabulary deep_one = Vocabulary::Train(data.images, options);
+  options.threads = 2;
+  EXPECT_EQ(SerializeVocabulary(deep_one), SerializeVocabulary(Vocabulary::Train(data.images, options)));
+  options.threads = 0;
+  EXPECT_NE(options.Validate(), "");
 }
 
 TEST(VocabularyTest, TfIdfAndL1Score) {
