@@ -27,7 +27,6 @@ struct Snapshot {
 // see their points enter fixed.
 Snapshot TakeSnapshot(const ServerMap& smap, const GlobalBaOptions& options,
                       const std::unordered_set<KeyframeId>* region) {
-  const double min_parallax_deg = options.min_parallax_deg;
   Snapshot s;
   s.generation = smap.generation();
   const Map& map = smap.map();
@@ -81,26 +80,9 @@ Snapshot TakeSnapshot(const ServerMap& smap, const GlobalBaOptions& options,
       mine.push_back(o);
     }
     if (static_cast<int>(mine.size()) < options.min_observations) continue;
-    bool low_parallax = false;  // off by default: no per-point work under the map lock then
-    if (min_parallax_deg > 0.0) {
-      std::vector<Eigen::Vector3d> centres;
-      for (const opt::Observation& o : mine) centres.push_back(kfs[o.pose_index]->world_from_cam().translation());
-      low_parallax = !HasParallax(mp->position(), centres, min_parallax_deg);
-    }
-    int anchor = -1;  // its reference keyframe if that sees it here, else the first that does
-    if (low_parallax && options.low_parallax_inverse_depth) {
-      anchor = mine.front().pose_index;
-      for (const opt::Observation& o : mine) {
-        if (kfs[o.pose_index]->id() == mp->reference_kf()) anchor = o.pose_index;
-      }
-    }
+    bool low_parallax = false;
+    s.problem.points.push_back(GlobalBaPointBlock(*mp, mine, kfs, options, &low_parallax));
     s.points_low_parallax += low_parallax ? 1 : 0;
-    opt::PointBlock p;
-    p.id = mp->id().packed();
-    p.position_w = mp->position();
-    p.fixed = low_parallax && !options.low_parallax_inverse_depth;
-    p.anchor_pose = anchor;
-    s.problem.points.push_back(p);
     s.point_ids.push_back(mp->id());
     s.problem.observations.insert(s.problem.observations.end(), mine.begin(), mine.end());
   }
@@ -149,6 +131,28 @@ opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options,
   ba.linear_solver = options.linear_solver;
   ba.abort = abort;
   return ba;
+}
+
+opt::PointBlock GlobalBaPointBlock(const MapPoint& mp, const std::vector<opt::Observation>& obs,
+                                   const std::vector<std::shared_ptr<KeyFrame>>& keyframes,
+                                   const GlobalBaOptions& options, bool* low_parallax) {
+  *low_parallax = false;
+  if (options.min_parallax_deg > 0.0) {  // off by default: no per-point work under the map lock then
+    std::vector<Eigen::Vector3d> centres;
+    for (const opt::Observation& o : obs) centres.push_back(keyframes[o.pose_index]->world_from_cam().translation());
+    *low_parallax = !HasParallax(mp.position(), centres, options.min_parallax_deg);
+  }
+  opt::PointBlock p;
+  p.id = mp.id().packed();
+  p.position_w = mp.position();
+  p.fixed = *low_parallax && !options.low_parallax_inverse_depth;
+  if (*low_parallax && options.low_parallax_inverse_depth && !obs.empty()) {
+    p.anchor_pose = obs.front().pose_index;
+    for (const opt::Observation& o : obs) {
+      if (keyframes[o.pose_index]->id() == mp.reference_kf()) p.anchor_pose = o.pose_index;
+    }
+  }
+  return p;
 }
 
 bool HasParallax(const Eigen::Vector3d& point_w, const std::vector<Eigen::Vector3d>& centres_w, double min_deg) {

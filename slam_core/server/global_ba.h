@@ -56,6 +56,14 @@ opt::BundleAdjusterOptions GlobalBaSolverOptions(const GlobalBaOptions& options,
 /// True if the rays from two of the camera centres to the point meet at min_deg or more
 /// (always true for min_deg <= 0).
 bool HasParallax(const Eigen::Vector3d& point_w, const std::vector<Eigen::Vector3d>& centres_w, double min_deg);
+/// The block of map point `mp` in a global BA that sees it through `obs` (pose indices into
+/// `keyframes`, problem pose k = keyframes[k]): free, or with less than options.min_parallax_deg
+/// of parallax held (*low_parallax set) or, with options.low_parallax_inverse_depth, anchored
+/// as an inverse depth in its reference keyframe (the first one in `obs` if that is not among
+/// them). The server's BA and bench_server build their points with it.
+opt::PointBlock GlobalBaPointBlock(const MapPoint& mp, const std::vector<opt::Observation>& obs,
+                                   const std::vector<std::shared_ptr<KeyFrame>>& keyframes,
+                                   const GlobalBaOptions& options, bool* low_parallax);
 /// Leaves out the observations whose chi2 before the BA exceeds options.gross_outlier_chi2 (or
 /// that do not project); returns their indices in the problem as it was.
 std::vector<size_t> DropGrossOutliers(opt::BundleProblem* problem, const GlobalBaOptions& options);

@@ -163,13 +163,9 @@ void GlobalBaTimes(const replay::Recording& rec, std::shared_ptr<const Vocabular
         obs.push_back({it->second, static_cast<int>(p.points.size()), Eigen::Vector2d(k.u, k.v),
                        kfs[it->second]->pyramid().scale[k.level]});
       }
-      if (obs.size() < 2) continue;
-      std::vector<Eigen::Vector3d> centres;
-      for (const opt::Observation& o : obs) centres.push_back(p.poses[o.pose_index].world_from_cam.translation());
-      const bool low_parallax = !HasParallax(mp->position(), centres, options.min_parallax_deg);  // as the server's BA
-      const bool inverse_depth = low_parallax && options.low_parallax_inverse_depth;
-      p.points.push_back({mp->id().packed(), mp->position(), low_parallax && !inverse_depth,
-                          inverse_depth ? obs.front().pose_index : -1});
+      if (static_cast<int>(obs.size()) < options.min_observations) continue;
+      bool low_parallax = false;  // held or anchored as the server's BA does
+      p.points.push_back(GlobalBaPointBlock(*mp, obs, kfs, options, &low_parallax));
       p.observations.insert(p.observations.end(), obs.begin(), obs.end());
     }
     DropGrossOutliers(&p, options);

@@ -44,7 +44,11 @@ std::vector<KeyframeId> BuildFusedMap(MapStack* stack, int keyframes) {
     const KeyframeId id = KeyframeId::Make(agent, k / 2 + 1);
     map.AddKeyframe(std::make_shared<KeyFrame>(id, int64_t{1000000000} * (k + 1), camera, f, pyramid,
                                                SE3(Eigen::Quaterniond::Identity(), {0.2 * k, 0, 0})));
-    if (agent == 1) smap.SetInfo(id, ServerKeyframeInfo{segment});
+    if (agent == 1) {
+      ServerKeyframeInfo info;
+      info.segment = segment;
+      smap.SetInfo(id, info);
+    }
     ids.push_back(id);
   }
   uint64_t point = 0;
