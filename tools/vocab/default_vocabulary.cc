@@ -1,8 +1,6 @@
 #include "tools/vocab/default_vocabulary.h"
 
-#include <algorithm>
 #include <filesystem>
-#include <thread>
 
 #include "slam_core/place_recognition/vocabulary_io.h"
 
@@ -65,7 +63,7 @@ std::optional<Vocabulary> LoadOrTrainDefaultVocabulary(const std::string& cache_
     return std::nullopt;
   }
   VocabularyOptions threaded = spec.vocabulary;  // same tree for any thread count
-  threaded.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threaded.threads = ThreadsOrAllCores(threads);
   Vocabulary vocab = Vocabulary::Train(images, threaded);
   problem = SaveVocabularyFile(vocab, cache_path);
   if (!problem.empty()) {

@@ -12,7 +12,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <thread>
 #include <opencv2/imgcodecs.hpp>
 
 #include "slam_core/common/stopwatch.h"
@@ -78,8 +77,7 @@ int TrainAndSave(const ccm::vocab::TrainingSources& sources, const ccm::vocab::C
   const auto t1 = Clock::now();
   ProgressLine line;
   ccm::VocabularyOptions threaded = options;  // same tree for any thread count
-  threaded.threads = collect.threads > 0 ? collect.threads
-                                         : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threaded.threads = ccm::vocab::ThreadsOrAllCores(collect.threads);
   const ccm::Vocabulary vocab =
       ccm::Vocabulary::Train(images, threaded, [&line](const ccm::TrainingProgress& p) {
         if (!line.Due(p.fraction >= 1.0)) return;

@@ -14,6 +14,10 @@ namespace ccm::vocab {
 
 using DescriptorSets = std::vector<std::vector<OrbDescriptor>>;
 
+int ThreadsOrAllCores(int threads) {
+  return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 std::string CollectOptions::Validate() const {
   if (max_images < 0) return "max_images must be >= 0";
   if (threads < 0) return "threads must be >= 0";
@@ -90,7 +94,7 @@ std::string RunJobs(std::size_t n, int threads, const std::function<std::string(
       if (!errors[i].empty()) failed = true;
     }
   };
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = ThreadsOrAllCores(threads);
   const std::size_t spawned = std::min<std::size_t>(static_cast<std::size_t>(threads), n);
   std::vector<std::thread> pool;
   for (std::size_t t = 1; t < spawned; ++t) pool.emplace_back(worker);

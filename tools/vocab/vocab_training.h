@@ -23,6 +23,9 @@ namespace ccm::vocab {
 /// thread at a time.
 using ImageProgressFn = std::function<void(std::int64_t done, std::int64_t total)>;
 
+/// `threads`, or all cores (at least 1) for 0: the meaning of the tools' --threads.
+int ThreadsOrAllCores(int threads);
+
 struct CollectOptions {
   OrbExtractorOptions orb;      ///< extractor settings (use the SLAM front end's)
   std::int64_t max_images = 0;  ///< images over all sources (see PlanImages); 0 = every image
