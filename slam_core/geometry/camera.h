@@ -35,6 +35,16 @@ class CameraModel {
   /// camera or outside the model's valid domain (image bounds are NOT checked here).
   virtual bool Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
                        Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const = 0;
+  /// Project for cost functions: the same pixel and Jacobian wherever Project succeeds, and the
+  /// distortion model continued smoothly past the fold where Project says "not visible" (false
+  /// only where no pixel can be computed, e.g. behind a pinhole). Why: a keypoint near the edge
+  /// of a strongly distorted image belongs to a point close to the fold, and a failed evaluation
+  /// makes Ceres reject the whole step: one such observation froze every step of a global BA
+  /// (wide-camera scenes, 2026-12-06). Its measurement keeps the point on the right side.
+  virtual bool ProjectForCost(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
+                              Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const {
+    return Project(p_cam, uv, d_uv_d_p);
+  }
   /// Unit bearing vector for a distorted pixel. False if the pixel cannot be undistorted.
   virtual bool Unproject(const Eigen::Vector2d& uv, Eigen::Vector3d* bearing) const = 0;
   /// Undistorted normalized image-plane coordinates (x/z, y/z) of a pixel. False if the

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include "slam_core/geometry/camera_models.h"
@@ -34,11 +35,23 @@ double FisheyeEquidistantCamera::ThetaD(double theta, double* d_theta_d) const {
 
 bool FisheyeEquidistantCamera::Project(const Eigen::Vector3d& p, Eigen::Vector2d* uv,
                                        Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
+  return ProjectUpTo(p, max_theta_rad_, uv, d_uv_d_p);
+}
+
+bool FisheyeEquidistantCamera::ProjectForCost(const Eigen::Vector3d& p, Eigen::Vector2d* uv,
+                                              Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
+  // Past max_theta the polynomial turns back but stays smooth; only the ray straight
+  // backwards (r -> 0 with Z < 0) has no defined pixel.
+  return ProjectUpTo(p, std::max(max_theta_rad_, M_PI - 1e-3), uv, d_uv_d_p);
+}
+
+bool FisheyeEquidistantCamera::ProjectUpTo(const Eigen::Vector3d& p, double max_theta_rad, Eigen::Vector2d* uv,
+                                           Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
   const double X = p.x(), Y = p.y(), Z = p.z();
   const double r2 = X * X + Y * Y;
   const double r = std::sqrt(r2);
   const double theta = std::atan2(r, Z);
-  if (theta >= max_theta_rad_ || p.squaredNorm() < 1e-18) return false;
+  if (theta >= max_theta_rad || p.squaredNorm() < 1e-18) return false;
   const double fx = intrinsics_.fx, fy = intrinsics_.fy;
   if (r < kAxisEpsilon * std::abs(Z)) {
     // On the axis: theta_d / r -> 1 / Z, same first-order behaviour as a pinhole.

@@ -16,9 +16,13 @@ class PinholeRadTanCamera final : public CameraModel {
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   bool Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
                Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const override;
+  bool ProjectForCost(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
+                      Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const override;
   bool Unproject(const Eigen::Vector2d& uv, Eigen::Vector3d* bearing) const override;
 
  private:
+  bool ProjectChecked(const Eigen::Vector3d& p_cam, bool check_fold, Eigen::Vector2d* uv,
+                      Eigen::Matrix<double, 2, 3>* d_uv_d_p) const;
   /// Distorts normalized coordinates; optional 2x2 Jacobian d(distorted)/d(xy).
   Eigen::Vector2d Distort(const Eigen::Vector2d& xy, Eigen::Matrix2d* jac) const;
 
@@ -36,10 +40,14 @@ class FisheyeEquidistantCamera final : public CameraModel {
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   bool Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
                Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const override;
+  bool ProjectForCost(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
+                      Eigen::Matrix<double, 2, 3>* d_uv_d_p = nullptr) const override;
   bool Unproject(const Eigen::Vector2d& uv, Eigen::Vector3d* bearing) const override;
   double max_theta_rad() const { return max_theta_rad_; }
 
  private:
+  bool ProjectUpTo(const Eigen::Vector3d& p_cam, double max_theta_rad, Eigen::Vector2d* uv,
+                   Eigen::Matrix<double, 2, 3>* d_uv_d_p) const;
   double ThetaD(double theta, double* d_theta_d = nullptr) const;
 
   CameraIntrinsics intrinsics_;

@@ -41,6 +41,16 @@ Eigen::Vector2d PinholeRadTanCamera::Distort(const Eigen::Vector2d& xy, Eigen::M
 
 bool PinholeRadTanCamera::Project(const Eigen::Vector3d& p, Eigen::Vector2d* uv,
                                   Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
+  return ProjectChecked(p, true, uv, d_uv_d_p);
+}
+
+bool PinholeRadTanCamera::ProjectForCost(const Eigen::Vector3d& p, Eigen::Vector2d* uv,
+                                         Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
+  return ProjectChecked(p, false, uv, d_uv_d_p);
+}
+
+bool PinholeRadTanCamera::ProjectChecked(const Eigen::Vector3d& p, bool check_fold, Eigen::Vector2d* uv,
+                                         Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
   if (p.z() <= 1e-9) return false;
   const double iz = 1.0 / p.z();
   const Eigen::Vector2d xy(p.x() * iz, p.y() * iz);
@@ -48,7 +58,7 @@ bool PinholeRadTanCamera::Project(const Eigen::Vector3d& p, Eigen::Vector2d* uv,
   const Eigen::Vector2d d = Distort(xy, &jd);
   // Beyond the fold of the distortion polynomial the mapping is not one-to-one;
   // such points would appear at a wrong pixel, so they are not visible.
-  if (jd.determinant() <= 0.0) return false;
+  if (check_fold && jd.determinant() <= 0.0) return false;
   *uv = Eigen::Vector2d(intrinsics_.fx * d.x() + intrinsics_.cx, intrinsics_.fy * d.y() + intrinsics_.cy);
   if (d_uv_d_p) {
     Eigen::Matrix<double, 2, 3> d_xy_d_p;

@@ -24,7 +24,7 @@ namespace ccm::opt {
 /// Projects a camera-frame point; false if the camera model rejects it.
 inline bool ProjectJet(const CameraModel& camera, const double* p_cam, double* uv) {
   Eigen::Vector2d out;
-  if (!camera.Project(Eigen::Vector3d(p_cam[0], p_cam[1], p_cam[2]), &out)) return false;
+  if (!camera.ProjectForCost(Eigen::Vector3d(p_cam[0], p_cam[1], p_cam[2]), &out)) return false;
   uv[0] = out.x();
   uv[1] = out.y();
   return true;
@@ -36,7 +36,7 @@ bool ProjectJet(const CameraModel& camera, const ceres::Jet<double, N>* p_cam,
                 ceres::Jet<double, N>* uv) {
   Eigen::Vector2d out;
   Eigen::Matrix<double, 2, 3> d_uv_d_p;
-  if (!camera.Project(Eigen::Vector3d(p_cam[0].a, p_cam[1].a, p_cam[2].a), &out, &d_uv_d_p)) {
+  if (!camera.ProjectForCost(Eigen::Vector3d(p_cam[0].a, p_cam[1].a, p_cam[2].a), &out, &d_uv_d_p)) {
     return false;
   }
   for (int r = 0; r < 2; ++r) {

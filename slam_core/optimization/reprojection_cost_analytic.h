@@ -28,7 +28,7 @@ inline bool EvaluateReprojection(const CameraModel& camera, const Eigen::Vector2
   const bool want_jacobians = jac_pose || jac_point;
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J;  // d(whitened uv) / d(p_cam)
-  if (!camera.Project(rotated + t, &uv, want_jacobians ? &J : nullptr)) return false;
+  if (!camera.ProjectForCost(rotated + t, &uv, want_jacobians ? &J : nullptr)) return false;
   residuals[0] = (uv.x() - z.x()) * inv_sigma;
   residuals[1] = (uv.y() - z.y()) * inv_sigma;
   if (!want_jacobians) return true;

@@ -20,7 +20,7 @@ struct ReprojectionResidual {
     const Sim3 s = Sim3::Exp(Eigen::Map<const Eigen::Matrix<double, 7, 1>>(xi)) * base;
     const Eigen::Vector3d p = inverse ? s.inverse() * point : s * point;
     Eigen::Vector2d uv;
-    if (p.z() <= 0.0 || !camera->Project(p, &uv)) return false;
+    if (p.z() <= 0.0 || !camera->ProjectForCost(p, &uv)) return false;
     residual[0] = (uv.x() - observed.x()) * inv_sigma;
     residual[1] = (uv.y() - observed.y()) * inv_sigma;
     return true;

@@ -138,6 +138,9 @@ SceneResult RunScene(std::uint64_t seed, const ccm::sim::SceneGeneratorOptions& 
     out.global_ba_total_s += s;
     if (s > out.global_ba_max_s) out.global_ba_max_s = s, out.global_ba_max_keyframes = kfs;
   }
+  for (const ccm::ServerEvent& e : result.events) {
+    if (e.kind == ccm::ServerEvent::Kind::kGlobalBa) out.global_ba_details.push_back(e.detail);
+  }
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

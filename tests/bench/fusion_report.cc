@@ -78,6 +78,7 @@ std::string SceneBlock(const SceneResult& r, bool events) {
   if (events) {
     for (const DetectionCheck& c : sc.fusions) s += EventLine("fusion", c);
     for (const DetectionCheck& c : sc.loops) s += EventLine("loop", c);
+    for (const std::string& d : r.global_ba_details) s += "  global BA: " + d + "\n";
     for (const MapScore& m : sc.maps) {
       if (m.agents.size() < 2) continue;
       s += Format("  map %u:%llu: %zu keyframes, joint ATE %.3f m;", m.id.agent(), static_cast<unsigned long long>(m.id.counter()), m.keyframes, m.joint_ate_m);

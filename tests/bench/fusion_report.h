@@ -24,6 +24,7 @@ struct SceneResult {
   int global_bas = 0;
   double global_ba_total_s = 0.0, global_ba_max_s = 0.0;
   int global_ba_max_keyframes = 0;
+  std::vector<std::string> global_ba_details;  ///< the server's line per global BA applied (--events)
   PlaceMatcherStats place;            ///< the place-recognition funnel (where candidates stopped)
   std::vector<MissedPairDiagnosis> missed;  ///< --recall: pairs that never fused, diagnosed
   std::string error;                  ///< the scene could not be replayed

@@ -69,6 +69,47 @@ TEST(Camera, PointsBehindPinholeAreRejectedFisheyeSeesBeyondNinetyDegrees) {
   EXPECT_FALSE(fish->Project({0.0, 0.0, -1.0}, &uv));  // straight behind
 }
 
+// Costs must not fail where Project says "not visible" only because the distortion model
+// folds over there: ProjectForCost gives Project's pixel and Jacobian where Project works and
+// continues smoothly past the fold; behind a pinhole it still fails.
+TEST(Camera, ProjectForCostContinuesPastTheFold) {
+  CameraIntrinsics wide;
+  wide.width_px = 848;
+  wide.height_px = 480;
+  wide.fx = wide.fy = 350;
+  wide.cx = 424;
+  wide.cy = 240;
+  wide.distortion = {-0.2, 0.0, 0.0, 0.0};  // radial fold at r = sqrt(1 / 0.6) = 1.291
+  const auto pin = MakeCamera(wide);
+  Eigen::Vector2d uv, uv_cost;
+  Eigen::Matrix<double, 2, 3> j, j_cost;
+  ASSERT_TRUE(pin->Project({1.2, 0.3, 1.0}, &uv, &j));
+  ASSERT_TRUE(pin->ProjectForCost({1.2, 0.3, 1.0}, &uv_cost, &j_cost));
+  EXPECT_EQ(uv, uv_cost);
+  EXPECT_EQ(j, j_cost);
+  const Eigen::Vector3d past(1.35, 0.0, 1.0);
+  EXPECT_FALSE(pin->Project(past, &uv));
+  ASSERT_TRUE(pin->ProjectForCost(past, &uv_cost, &j_cost));
+  Eigen::Vector2d at_fold;
+  ASSERT_TRUE(pin->Project({1.29, 0.0, 1.0}, &at_fold));
+  EXPECT_LT(uv_cost.x(), at_fold.x()) << "past the fold the polynomial turns back towards the centre";
+  for (int a = 0; a < 3; ++a) {
+    const Eigen::Vector3d h = 1e-6 * Eigen::Vector3d::Unit(a);
+    Eigen::Vector2d up, um;
+    ASSERT_TRUE(pin->ProjectForCost(past + h, &up));
+    ASSERT_TRUE(pin->ProjectForCost(past - h, &um));
+    EXPECT_LT(((up - um) / 2e-6 - j_cost.col(a)).norm(), 1e-4 * (1.0 + j_cost.col(a).norm()));
+  }
+  EXPECT_FALSE(pin->ProjectForCost({0.1, 0.1, -1.0}, &uv));
+
+  const FisheyeEquidistantCamera fish(TumViFisheyeIntrinsics());
+  const double beyond = fish.max_theta_rad() + 0.05;
+  const Eigen::Vector3d ray(std::sin(beyond), 0.0, std::cos(beyond));
+  EXPECT_FALSE(fish.Project(ray, &uv));
+  EXPECT_TRUE(fish.ProjectForCost(ray, &uv));
+  EXPECT_FALSE(fish.ProjectForCost({0.0, 0.0, -1.0}, &uv));  // straight behind: no pixel
+}
+
 TEST(Camera, UndistortToNormalizedMatchesPinholeGeometry) {
   const auto cam = MakeCamera(EurocCam0Intrinsics());
   const Eigen::Vector3d p(0.4, -0.2, 2.0);

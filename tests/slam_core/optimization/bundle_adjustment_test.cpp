@@ -374,6 +374,79 @@ TEST(GlobalBundleAdjustment, MixedPinholeAndFisheyeKeyframes) {
   EXPECT_LT(ReprojectionRmsePx(p), 0.8);  // 0.5 px noise per axis -> ~0.7 px RMSE
 }
 
+// A wide lens whose distortion polynomial folds inside the image (848 px across, f = 350,
+// k1 = -0.2: no ray maps beyond ~300 px from the centre): a keypoint near that edge belongs
+// to a point close to the fold. Project calls it invisible a hair further out, so with
+// Project in the costs every step that moved such a point outwards failed to evaluate and
+// Ceres rejected the whole step: global BAs of wide-camera maps made no step at all
+// (2026-12-06). The costs use ProjectForCost, which continues the model smoothly.
+TEST(GlobalBundleAdjustment, AnObservationAtTheDistortionFoldDoesNotFreezeTheSteps) {
+  SceneOptions so;
+  so.num_keyframes = 30;
+  so.pixel_noise_px = 0.0;
+  so.seed = 23;
+  testing::Scene scene = MakeScene(so);
+  BundleProblem& p = scene.problem;
+  CameraIntrinsics k;
+  k.width_px = 848;
+  k.height_px = 480;
+  k.fx = k.fy = 350;
+  k.cx = 424;
+  k.cy = 240;
+  k.distortion = {-0.2, 0.0, 0.0, 0.0};
+  p.cameras[0] = std::shared_ptr<const CameraModel>(MakeCamera(k));
+  const CameraModel& wide = *p.cameras[0];
+  const double fold_r = std::sqrt(1.0 / 0.6);  // d(r (1 + k1 r^2)) / dr = 0
+  std::mt19937 rng(31);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  // One more keyframe beside keyframe 10, turned so that a point keyframe 10 sees lies just
+  // past the fold (its keypoint at the edge of the image circle); it sees everything else in
+  // its view as usual. The point starts just inside the fold: its observation is valid there
+  // and the others pull it across.
+  const int fold_point = std::find_if(p.observations.begin(), p.observations.end(), [](const Observation& o) {
+                           return o.pose_index == 10;
+                         })->point_index;
+  const SE3& beside = p.poses[10].world_from_cam;
+  const Eigen::Vector3d bearing = (beside.inverse() * scene.gt_points_w[fold_point]).normalized();
+  const Eigen::Quaterniond turn =
+      Eigen::Quaterniond::FromTwoVectors(bearing, Eigen::Vector3d(fold_r * 1.001, 0.0, 1.0).normalized());
+  const SE3 turned_cam_from_world(turn * beside.inverse().rotation(), turn * beside.inverse().translation());
+  p.poses.push_back(PoseBlock{999, turned_cam_from_world.inverse(), false, 0});
+  scene.gt_world_from_cam.push_back(p.poses.back().world_from_cam);
+  const int turned = static_cast<int>(p.poses.size()) - 1;
+  std::vector<Observation> all = p.observations;
+  for (size_t i = 0; i < p.points.size(); ++i) all.push_back(Observation{turned, static_cast<int>(i), {}, 1.0});
+  p.observations.clear();
+  for (Observation o : all) {
+    const Eigen::Vector3d p_cam = p.poses[o.pose_index].world_from_cam.inverse() * scene.gt_points_w[o.point_index];
+    Eigen::Vector2d uv;
+    if (o.pose_index == turned && o.point_index == fold_point) {
+      ASSERT_FALSE(wide.Project(p_cam, &uv)) << "the point is past the fold";
+      ASSERT_TRUE(wide.ProjectForCost(p_cam, &uv));
+      ASSERT_TRUE(wide.InImage(uv));
+    } else if (!wide.Project(p_cam, &uv) || !wide.InImage(uv)) {
+      continue;
+    } else {
+      uv += Eigen::Vector2d(noise(rng), noise(rng));
+    }
+    p.observations.push_back(Observation{o.pose_index, o.point_index, uv, 1.0});
+  }
+  p.poses[0].fixed = true;
+  testing::Perturb(&p, 0.1, 0.01, 0.02, &rng);
+  p.poses[turned].world_from_cam = scene.gt_world_from_cam[turned];
+  const Eigen::Vector3d inside = Eigen::Vector3d(fold_r * 0.999, 0.0, 1.0).normalized() *
+                                 (turned_cam_from_world * scene.gt_points_w[fold_point]).norm();
+  p.points[fold_point].position_w = turned_cam_from_world.inverse() * inside;
+  BundleAdjusterOptions options = GlobalBaDefaults();
+  options.robust_iterations = 20;
+  const OptimizationSummary s = GlobalBundleAdjustment(&p, options);
+  ASSERT_TRUE(s.usable) << s.message;
+  EXPECT_LT(s.rejected_steps, s.iterations / 2) << s.message;
+  const testing::PoseErrors e = AlignedErrorsOf(p, scene);
+  EXPECT_LT(e.max_position_m, 0.01) << "rmse " << e.rmse_position_m;
+  EXPECT_LT(e.max_rotation_deg, 0.1);
+}
+
 TEST(BundleAdjust, RejectsInvalidProblem) {
   BundleProblem p;
   p.cameras.push_back(testing::MakeTestCamera());
