@@ -42,7 +42,7 @@ bool FisheyeEquidistantCamera::ProjectForCost(const Eigen::Vector3d& p, Eigen::V
                                               Eigen::Matrix<double, 2, 3>* d_uv_d_p) const {
   // Past max_theta the polynomial turns back but stays smooth; only the ray straight
   // backwards (r -> 0 with Z < 0) has no defined pixel.
-  return ProjectUpTo(p, std::max(max_theta_rad_, M_PI - 1e-3), uv, d_uv_d_p);
+  return ProjectUpTo(p, std::max(max_theta_rad_, kPi - 1e-3), uv, d_uv_d_p);
 }
 
 bool FisheyeEquidistantCamera::ProjectUpTo(const Eigen::Vector3d& p, double max_theta_rad, Eigen::Vector2d* uv,
