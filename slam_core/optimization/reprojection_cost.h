@@ -21,7 +21,8 @@
 
 namespace ccm::opt {
 
-/// Projects a camera-frame point; false if the camera model rejects it.
+/// Projects a camera-frame point through CameraModel::ProjectForCost (continued past the
+/// distortion's fold); false only where the model has no pixel for it.
 inline bool ProjectJet(const CameraModel& camera, const double* p_cam, double* uv) {
   Eigen::Vector2d out;
   if (!camera.ProjectForCost(Eigen::Vector3d(p_cam[0], p_cam[1], p_cam[2]), &out)) return false;
@@ -46,7 +47,7 @@ bool ProjectJet(const CameraModel& camera, const ceres::Jet<double, N>* p_cam,
   return true;
 }
 
-/// (projection of p_cam - z) / sigma; false if the camera model rejects the point.
+/// (projection of p_cam - z) / sigma; false where ProjectJet is.
 template <typename T>
 bool WhitenedResidual(const CameraModel& camera, const T* p_cam, const Eigen::Vector2d& z, double inv_sigma, T* residual) {
   T uv[2];
