@@ -46,6 +46,7 @@ nlohmann::json MapsJson(const RunEvaluation& ev) {
       if (ms.scored) {
         part["path_m"] = p.path_m;
         part["ate_m"] = StatsJson(p.ate_m);
+        part["own_ate_m"] = StatsJson(p.own_ate_m);
         part["scale_to_ground_truth"] = p.scale_to_gt;
       }
       parts.push_back(part);
@@ -91,6 +92,7 @@ nlohmann::json AgentsJson(const RunResult& result, const RunEvaluation& ev) {
                       {"path_m", sc.path_m},
                       {"standalone_ate_m", StatsJson(sc.standalone_ate_m)},
                       {"collaborative_ate_m", StatsJson(sc.collaborative_ate_m)},
+                      {"part_ate_m", StatsJson(sc.part_ate_m)},
                       {"tracking_ms_median", Percentile(a.tracking_ms, 0.5)},
                       {"server_keyframe_ms_median", Percentile(counters.keyframe_ms, 0.5)},
                       {"server_keyframe_ms_p95", Percentile(counters.keyframe_ms, 0.95)},

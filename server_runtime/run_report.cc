@@ -61,6 +61,7 @@ MapScore ScoreMap(const RunResult& result, const MapSummary& summary) {
     for (AgentInMap& part : ms.agents) {
       if (part.name != r.name) continue;
       part.ate_m = r.ate_joint_m;
+      part.own_ate_m = r.ate_m;
       part.scale_to_gt = r.gt_from_est.scale();
       lo = lo > 0.0 ? std::min(lo, part.scale_to_gt) : part.scale_to_gt;
       hi = std::max(hi, part.scale_to_gt);
@@ -129,7 +130,7 @@ RunEvaluation EvaluateRun(const RunResult& result) {
     ev.gt_from_map = fm.gt_from_map;
     for (const AgentInMap& part : fm.agents) {
       for (AgentScore& s : ev.agents) {
-        if (s.id == part.id) s.collaborative_ate_m = part.ate_m;
+        if (s.id == part.id) s.collaborative_ate_m = part.ate_m, s.part_ate_m = part.own_ate_m;
       }
     }
     if (ev.joint_path_m > 0) ev.collaborative_ate_percent = 100.0 * ev.collaborative_ate_m.rmse / ev.joint_path_m;
@@ -142,14 +143,17 @@ RunEvaluation EvaluateRun(const RunResult& result) {
 }
 
 void PrintRunSummary(const RunResult& r, const RunEvaluation& ev) {
-  std::printf("\n%-12s %7s %8s %6s %10s %10s %12s %12s\n", "agent", "frames", "tracked", "segs", "KFs VO",
-              "KFs map", "ATE VO [m]", "ATE map [m]");
+  // "ATE map": the agent's keyframes under the map's one alignment; "ATE part": under their
+  // own (the agent's part of the map against its VO, whatever the other parts do).
+  std::printf("\n%-12s %7s %8s %6s %10s %10s %12s %12s %13s\n", "agent", "frames", "tracked", "segs", "KFs VO",
+              "KFs map", "ATE VO [m]", "ATE map [m]", "ATE part [m]");
   for (size_t i = 0; i < r.agents.size(); ++i) {
     const auto& a = r.agents[i];
     const auto& s = ev.agents[i];
-    std::printf("%-12s %7lld %7.1f%% %6d %10zu %10zu %12.4f %12.4f\n", a.name.c_str(), static_cast<long long>(a.frames),
-                a.frames ? 100.0 * a.frames_tracked / a.frames : 0.0, a.segments, s.vo_keyframes, s.server_keyframes,
-                s.standalone_ate_m.rmse, s.collaborative_ate_m.rmse);
+    std::printf("%-12s %7lld %7.1f%% %6d %10zu %10zu %12.4f %12.4f %13.4f\n", a.name.c_str(),
+                static_cast<long long>(a.frames), a.frames ? 100.0 * a.frames_tracked / a.frames : 0.0, a.segments,
+                s.vo_keyframes, s.server_keyframes, s.standalone_ate_m.rmse, s.collaborative_ate_m.rmse,
+                s.part_ate_m.rmse);
   }
   std::printf("maps %zu, fusions %lld, loops %lld, redundant keyframes removed %lld, global BAs %lld (%lld aborted)\n",
               ev.maps, static_cast<long long>(r.stats.fusions), static_cast<long long>(r.stats.loops),

@@ -56,6 +56,10 @@ struct AgentScore {
   size_t vo_keyframes = 0;
   ErrorStats standalone_ate_m;      ///< VO keyframes, own Sim(3) alignment
   ErrorStats collaborative_ate_m;   ///< server keyframes under the joint alignment
+  /// Its server keyframes in the final map under their own Sim(3) alignment: what the map
+  /// made of this agent's part, apart from how the parts fit together. Compared with
+  /// standalone_ate_m it says whether collaborating made the agent's own map better.
+  ErrorStats part_ate_m;
 };
 
 /// One agent's part of one server map.
@@ -68,6 +72,7 @@ struct AgentInMap {
   std::vector<double> full_keyframe_s;
   double path_m = 0.0;        ///< ground-truth path between its first and last keyframe there
   ErrorStats ate_m;           ///< under the map's joint alignment
+  ErrorStats own_ate_m;       ///< under its own Sim(3) alignment
   /// Scale of this part's own Sim(3) alignment to the ground truth (metres per map unit);
   /// 0 if not scored. Parts of one well-fused map have equal scales.
   double scale_to_gt = 0.0;

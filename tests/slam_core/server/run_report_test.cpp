@@ -74,6 +74,16 @@ TEST(ReplayReport, ScoresEveryMapWithItsAgentsAndScales) {
   EXPECT_NEAR(m1.agents[1].scale_to_gt, 1 / 0.55, 1e-6);
   EXPECT_NEAR(m1.scale_ratio, 1.1, 1e-6);
   EXPECT_GT(m1.joint_ate_m.rmse, 0.05) << "the two parts disagree in scale: one alignment cannot fit both";
+  // Each part alone is an exact similarity of its ground truth: perfect under its own
+  // alignment, off under the joint one.
+  for (const report::AgentInMap& part : m1.agents) {
+    EXPECT_EQ(part.own_ate_m.count, 15u) << part.name;
+    EXPECT_LT(part.own_ate_m.rmse, 1e-6) << part.name;
+    EXPECT_GT(part.ate_m.rmse, 0.02) << part.name;
+  }
+  EXPECT_LT(ev.agents[0].part_ate_m.rmse, 1e-6);
+  EXPECT_EQ(ev.agents[0].part_ate_m.count, 15u);
+  EXPECT_GT(ev.agents[0].collaborative_ate_m.rmse, 0.02);
   ASSERT_EQ(m2.agents.size(), 1u);
   EXPECT_EQ(m2.agents[0].name, "C");
   EXPECT_NEAR(m2.agents[0].scale_to_gt, 0.5, 1e-6);
@@ -122,6 +132,10 @@ TEST(ReplayReport, WritesEveryMapsTrajectoriesSummaryAndPanels) {
   EXPECT_EQ(s["maps"][1]["parts"][0]["full_keyframe_s"], nlohmann::json::array({0.0, 4.0, 8.0, 12.0, 16.0}))
       << "the ones held in full, seconds after the agent's first keyframe in the map";
   EXPECT_EQ(s["maps"][0]["parts"][0]["full_keyframes"], 15);
+  EXPECT_EQ(s["maps"][0]["parts"][0]["own_ate_m"]["count"], 15);
+  EXPECT_LT(s["maps"][0]["parts"][0]["own_ate_m"]["rmse"].get<double>(), 1e-6);
+  EXPECT_GT(s["maps"][0]["parts"][0]["ate_m"]["rmse"].get<double>(), 0.02);
+  EXPECT_LT(s["agents"][0]["part_ate_m"]["rmse"].get<double>(), 1e-6);
   EXPECT_LT(s["maps"][1]["accuracy"]["joint_ate_m"]["rmse"].get<double>(), 1e-6);
   EXPECT_TRUE(s.contains("place_recognition"));
   const cv::Mat top = cv::imread(dir + "/map_top.png");
