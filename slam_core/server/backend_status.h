@@ -23,6 +23,9 @@ struct AgentCounters {
   /// Keyframes whose links mostly disagreed, placed on the points their predecessor sees
   /// (an agent back at old points before the loop was closed); registration.cc RefinePose.
   int64_t keyframes_kept_on_track = 0;
+  /// Refinements against the map that pulled a keyframe further than its agent's VO drifts
+  /// in a step, with neither its track nor a clear majority of its links for it: refused.
+  int64_t refinements_refused = 0;
   int64_t points_registered = 0;
   int64_t updates_applied = 0;
   int64_t updates_ignored = 0;

@@ -1,6 +1,8 @@
 #include "slam_core/server/registration.h"
 
 #include <algorithm>
+#include <limits>
+#include <optional>
 #include <unordered_set>
 
 #include "slam_core/map_ops/map_bundle_adjustment.h"
@@ -104,12 +106,13 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
     }
   }
   int inliers = 0;
-  bool kept_on_track = false;
+  bool kept_on_track = false, implausible = false;
   const KeyframeId continuity = reg.placement == RegisteredKeyframe::Placement::kPredecessor ? data.predecessor
                                 : reg.placement == RegisteredKeyframe::Placement::kParent    ? data.parent
                                                                                               : KeyframeId();
-  reg.refined = RefinePose(smap, kf.get(), continuity, &inliers, &kept_on_track);
+  reg.refined = RefinePose(smap, kf.get(), continuity, &inliers, &kept_on_track, &implausible);
   report->kept_on_track += kept_on_track;
+  report->implausible_refinements += implausible;
   if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
     UpdateScale(handler, data, smap, *kf);
   }
@@ -157,40 +160,67 @@ void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, S
 }
 
 bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId continuity, int* inliers,
-                                   bool* kept_on_track) {
+                                   bool* kept_on_track, bool* implausible) {
   Map& map = smap->map();
   std::vector<MapPointId> refs;
   const std::vector<opt::PointObservation> obs = LinkedPointObservations(map, *kf, &refs);
   *inliers = 0;
   if (static_cast<int>(obs.size()) < options_.refine_min_inliers) return false;
-  SE3 pose = kf->world_from_cam();
+  const SE3 placed = kf->world_from_cam();
+  SE3 pose = placed;
   opt::OptimizationSummary s = opt::OptimizePose(kf->camera(), obs, &pose);
   // Most links must agree: a placement far off (or wrong links) would converge to
   // something wrong, and its outliers must not be erased then.
   const auto most_agree = [&](const opt::OptimizationSummary& r, size_t links) {
     return r.usable && r.num_inliers >= options_.refine_min_inliers && 2 * r.num_inliers >= static_cast<int>(links);
   };
-  bool ok = most_agree(s, obs.size());
   const auto before = continuity.valid() ? map.keyframe(continuity) : nullptr;
-  if (!ok && before) {
-    // Most links disagree with every pose. Seen when an agent is back where it was and
-    // tracks old points that the server holds elsewhere (drift the server has not closed as
-    // a loop yet, or points it fused differently): left in the map, those links tear it
-    // between this keyframe and its predecessor, local BA bends the agent's whole part
-    // around the tear, and the keyframe looks covisible with the old ones, which hides the
-    // loop from place recognition. The points the predecessor sees as well carry the track:
-    // if they agree on a pose, it is the keyframe's, and the links that disagree with it are
-    // dropped (loop closing joins the two places properly).
+  // The links to points the keyframe it hangs on sees as well carry the agent's track.
+  std::optional<SE3> continued;
+  const auto refine_on_track = [&]() {
+    if (continued || !before) return;
     const auto seen_before = before->map_points();
     const std::unordered_set<MapPointId> continuing(seen_before.begin(), seen_before.end());
     std::vector<opt::PointObservation> tracked;
     for (size_t i = 0; i < refs.size(); ++i) {
       if (continuing.count(refs[i])) tracked.push_back(obs[i]);
     }
-    SE3 continued = kf->world_from_cam();
-    const opt::OptimizationSummary c = opt::OptimizePose(kf->camera(), tracked, &continued);
-    if (most_agree(c, tracked.size())) {
-      pose = continued;
+    SE3 p = placed;
+    if (most_agree(opt::OptimizePose(kf->camera(), tracked, &p), tracked.size())) continued = p;
+  };
+  // How far the map may pull the keyframe from where the agent's relative pose put it on
+  // the links' word alone: the agent's VO drifts by a small share of a step from one
+  // keyframe to the next, and the keyframe it hangs on is in the map's frame already. A
+  // pull beyond that stands only if the track agrees (an agent whose VO drifts fast, or a
+  // map that a loop or fusion moved under it) or a clear majority of the links agrees with
+  // it (refine_far_pull_min_share); otherwise it is a pose the links fit by chance
+  // (seen: 20 of 40 links pulling a keyframe back 2 m along a 1 m step after a loop had moved
+  // the points it came back to, with every later keyframe of the agent hung on it). Without
+  // a keyframe to hang on, the refinement is the placement.
+  const double max_pull =
+      before ? std::max(options_.refine_max_step_share * (placed.translation() - before->world_from_cam().translation()).norm(),
+                        options_.refine_min_pull_depth_ratio * MedianSceneDepth(map, *kf))
+             : std::numeric_limits<double>::infinity();
+  const auto within = [&](const SE3& a, const SE3& b) { return (a.translation() - b.translation()).norm() <= max_pull; };
+  bool ok = most_agree(s, obs.size());
+  if (ok && !within(pose, placed) &&
+      s.num_inliers < options_.refine_far_pull_min_share * static_cast<double>(obs.size())) {
+    refine_on_track();
+    if (!continued || !within(*continued, pose)) ok = false, *implausible = true;
+  }
+  if (!ok && before) {
+    // Most links disagree with every pose (or pull it where the track does not go). Seen
+    // when an agent is back where it was and tracks old points that the server holds
+    // elsewhere (drift the server has not closed as a loop yet, or points it fused
+    // differently): left in the map, those links tear it between this keyframe and its
+    // predecessor, local BA bends the agent's whole part around the tear, and the keyframe
+    // looks covisible with the old ones, which hides the loop from place recognition. The
+    // points the predecessor sees as well carry the track: if they agree on a pose, it is
+    // the keyframe's, and the links that disagree with it are dropped (loop closing joins
+    // the two places properly).
+    refine_on_track();
+    if (continued) {
+      pose = *continued;
       s.inlier.assign(obs.size(), false);
       s.num_inliers = opt::ClassifyObservations(kf->camera(), obs, pose.inverse(), opt::kChi2Mono2Dof, &s.inlier);
       ok = *kept_on_track = true;

@@ -47,6 +47,7 @@ struct RegistrationReport {
   int anchors_registered = 0;                 ///< anchor-only keyframes kept as anchors
   int anchors_dropped = 0;                    ///< anchor-only keyframes with nothing to hang on
   int kept_on_track = 0;                      ///< failed refinements redone on the predecessor's points
+  int implausible_refinements = 0;            ///< refined poses that pulled too far: placement kept or redone
   int keyframe_updates_applied = 0;
   int point_updates_applied = 0;
   int updates_ignored = 0;                    ///< unknown ids, or data the server corrected since
@@ -69,7 +70,8 @@ class AgentRegistration {
   void ReleaseWaitingPoints(KeyframeId kf, RegistrationReport* report);
   void AddPendingLink(MapPointId mp, KeyframeId kf, int keypoint);
   /// `continuity`: the keyframe it was placed from (predecessor or parent; invalid if none).
-  bool RefinePose(ServerMap* map, KeyFrame* kf, KeyframeId continuity, int* inliers, bool* kept_on_track);
+  bool RefinePose(ServerMap* map, KeyFrame* kf, KeyframeId continuity, int* inliers, bool* kept_on_track,
+                  bool* implausible);
   void UpdateScale(const AgentHandler& handler, const KeyframeData& data, ServerMap* map, const KeyFrame& kf);
   void ApplyKeyframeUpdate(const KeyframePoseUpdate& u, RegistrationReport* report);
   void ApplyPointUpdate(const MapPointPositionUpdate& u, MapId segment, RegistrationReport* report);

@@ -194,6 +194,7 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     c.keyframes_duplicate += skipped;
     c.keyframes_anchor_only += report.anchors_registered + report.anchors_dropped;
     c.keyframes_kept_on_track += report.kept_on_track;
+    c.refinements_refused += report.implausible_refinements;
     c.points_registered += report.points_registered;
     c.updates_applied += report.keyframe_updates_applied + report.point_updates_applied;
     c.updates_ignored += report.updates_ignored;

@@ -7,6 +7,12 @@ std::string RegistrationOptions::Validate() const {
   if (!(scale_min_baseline_depth_ratio >= 0.0)) return "registration.scale_min_baseline_depth_ratio must be >= 0";
   if (!(scale_max_step > 1.0)) return "registration.scale_max_step must be > 1";
   if (refine_min_inliers < 3) return "registration.refine_min_inliers must be >= 3";
+  if (!(refine_max_step_share > 0.0) || !(refine_min_pull_depth_ratio > 0.0)) {
+    return "registration.refine_max_step_share and refine_min_pull_depth_ratio must be > 0";
+  }
+  if (!(refine_far_pull_min_share >= 0.5 && refine_far_pull_min_share <= 1.0)) {
+    return "registration.refine_far_pull_min_share must be in [0.5, 1]";
+  }
   if (max_pending_points < 0) return "registration.max_pending_points must be >= 0";
   if (max_pending_links < 0) return "registration.max_pending_links must be >= 0";
   return "";

@@ -24,6 +24,17 @@ struct RegistrationOptions {
   /// Scale samples outside [1/x, x] of the current factor are outliers and ignored.
   double scale_max_step = 2.0;
   int refine_min_inliers = 15;  ///< pose refinement against the map needs this many inliers
+  /// The refinement may move a keyframe from its placement by at most this share of its step
+  /// from the keyframe it was placed from (the agent's VO drifts by a small share of a step;
+  /// well-placed keyframes move by 0-20 % of theirs) ...
+  double refine_max_step_share = 0.5;
+  /// ... or by this share of its median scene depth, whichever is more (a hovering agent
+  /// makes steps of nearly nothing).
+  double refine_min_pull_depth_ratio = 0.05;
+  /// A pull beyond that stands if the links the keyframe shares with the one it was placed
+  /// from agree with it, or if at least this share of all its links does (a clear majority,
+  /// where the refinement itself needs half).
+  double refine_far_pull_min_share = 2.0 / 3.0;
   /// Points whose reference keyframe has not arrived wait for it, at most this many per agent.
   int max_pending_points = 20000;
   /// Own points a registered keyframe links that have not arrived: their links wait for
