@@ -194,7 +194,7 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId con
   // pull beyond that stands only if the track agrees (an agent whose VO drifts fast, or a
   // map that a loop or fusion moved under it) or a clear majority of the links agrees with
   // it (refine_far_pull_min_share); otherwise it is a pose the links fit by chance
-  // (seen: 20 of 40 links pulling a keyframe back 2 m along a 1 m step after a loop had moved
+  // (seen: 20 of 38 links pulling a keyframe back 2 m along a 1 m step after a loop had moved
   // the points it came back to, with every later keyframe of the agent hung on it). Without
   // a keyframe to hang on, the refinement is the placement.
   const double max_pull =
