@@ -130,7 +130,9 @@ RunEvaluation EvaluateRun(const RunResult& result) {
     ev.gt_from_map = fm.gt_from_map;
     for (const AgentInMap& part : fm.agents) {
       for (AgentScore& s : ev.agents) {
-        if (s.id == part.id) s.collaborative_ate_m = part.ate_m, s.part_ate_m = part.own_ate_m;
+        if (s.id != part.id) continue;
+        s.collaborative_ate_m = part.ate_m;
+        s.part_ate_m = part.own_ate_m;
       }
     }
     if (ev.joint_path_m > 0) ev.collaborative_ate_percent = 100.0 * ev.collaborative_ate_m.rmse / ev.joint_path_m;

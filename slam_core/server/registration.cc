@@ -197,11 +197,18 @@ bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId con
   // (seen: 20 of 38 links pulling a keyframe back 2 m along a 1 m step after a loop had moved
   // the points it came back to, with every later keyframe of the agent hung on it). Without
   // a keyframe to hang on, the refinement is the placement.
-  const double max_pull =
-      before ? std::max(options_.refine_max_step_share * (placed.translation() - before->world_from_cam().translation()).norm(),
-                        options_.refine_min_pull_depth_ratio * MedianSceneDepth(map, *kf))
+  // The scene-depth floor (a median over the keyframe's points) only where the step bound
+  // alone would refuse: most pulls are well inside it.
+  const double step_pull =
+      before ? options_.refine_max_step_share * (placed.translation() - before->world_from_cam().translation()).norm()
              : std::numeric_limits<double>::infinity();
-  const auto within = [&](const SE3& a, const SE3& b) { return (a.translation() - b.translation()).norm() <= max_pull; };
+  std::optional<double> depth_pull;
+  const auto within = [&](const SE3& a, const SE3& b) {
+    const double d = (a.translation() - b.translation()).norm();
+    if (d <= step_pull) return true;
+    if (!depth_pull) depth_pull = options_.refine_min_pull_depth_ratio * MedianSceneDepth(map, *kf);
+    return d <= *depth_pull;
+  };
   bool ok = most_agree(s, obs.size());
   if (ok && !within(pose, placed) &&
       s.num_inliers < options_.refine_far_pull_min_share * static_cast<double>(obs.size())) {

@@ -385,10 +385,11 @@ TEST(Registration, MostLinksAgreeingOnAPoseFarFromTheTrackDoNotMoveTheKeyframe) 
   // As above, but all drifted links agree on one pose, 30 % of the scene depth off the
   // track: the refinement fits it (60 % of the links agree: most, not a clear majority), yet
   // the agent's VO does not drift that far from one keyframe to the next, and the links the
-  // keyframe shares with its predecessor do not go there. Seen on an unseen scene after a loop had moved the
-  // points an agent was coming back to: 20 of 40 links pulled its keyframe 2 m back along a
-  // 1 m step, every later keyframe hung on it, and the agent's part of the fused map went
-  // from 0.014 to 0.25 m ATE. The pull is refused and the predecessor's points place it.
+  // keyframe shares with its predecessor do not go there. Seen on an unseen scene after a
+  // loop had moved the points an agent was coming back to: 20 of 38 links pulled its
+  // keyframe 2 m back along a 1 m step, every later keyframe hung on it, and the agent's part
+  // of the fused map went from 0.014 to 0.25 m ATE. The pull is refused and the
+  // predecessor's points place it.
   const RevisitOutcome r = RegisterDriftedRevisit(0.3, /*one_drift=*/true);
   std::printf("  %d drifted links (shift %.3f): keyframe %.4f from its placement, %d drifted links kept\n",
               r.drifted_links, r.shift, r.offset, r.drifted_kept);

@@ -47,9 +47,9 @@ CASES = {
     # on. Measured 2026-12-06: tracked 91 / 84 / 99 %, VO 1.05 / 0.05 / 0.41 % (the first car's
     # 70 frames drift more than the first 100 do: 0.31 m either way), 1 map after 2 fusions
     # (on frames 94 and 55), joint ATE 0.297 m = 0.25 % of 119.5 m, scale ratio 1.037
-    # (parts at own-alignment ATE 0.43 / 0.14 / 0.23 m). The scale bound is wider than the two-car case's
-    # because the parts lie further apart along the road: one agent driving all 160 frames
-    # (server map) has its first and last thirds 1.040 apart in scale (monocular drift).
+    # (parts at own-alignment ATE 0.43 / 0.14 / 0.23 m). The scale bound is wider than the
+    # two-car case's because the parts lie further apart along the road: one agent driving all
+    # 160 frames (server map) has its first and last thirds 1.040 apart in scale (monocular drift).
     "kitti07-three": dict(folder="kitti07_first160", ranges=("0-69", "45-114", "90-159"),
                           ground_truth="poses_07_first160_kitti.txt", road=True, shared=[(45, 69), (90, 114)],
                           min_tracked=0.75, max_vo_ate_pct=1.5, fuses=True, max_joint_ate_pct=0.75,
