@@ -69,10 +69,17 @@ constexpr int kFirstSimAgent = 1;
 // bimodal: 8 runs 1.09-1.77x, 3 runs 3.17-3.45x (0.038-0.065 m against 0.012-0.019 m; the
 // error grows over the keyframes after the fusion, a scale drift of the agent's part in the
 // fused map; CI failed twice on the 2x bound). That mode is a known open problem (issue 27,
-// docs/server.md), so under loss the bound is 4x and catches gross errors only; the
-// loss-free case keeps 2x, where a regression of the protocol shows as well.
-constexpr double kServerOverOwn = 2.0;
-constexpr double kServerOverOwnLossy = 4.0;
+// docs/server.md), so under loss the bound is 4x and catches gross errors only.
+// Loss-free, 8 runs of 2026-12-06 plus the CI run that kept 11e0a07 from landing: sim agent
+// 2's server copy 0.007-0.047 m against its own 0.008-0.031 m, above 2x + 0.015 m in 3 of 9
+// (3.9x, 5.0x, 5.0x: 0.036-0.042 m against 0.008-0.009 m). Its error grows over the last 5 s
+// (0.03 -> 0.09 m): after the fusion at ~20 s the part carries agent 1's drift, on top of the
+// re-estimation noise a loop-free server copy shows alone (ccm_replay of sim agent 2 alone:
+// 0.018 m against the VO's 0.0096 m, growing over the same 5 s). The registration pull bound
+// refused nothing in any of the 18 runs. So both cases take 4x and catch gross errors only;
+// what the protocol must get right (updates that overtake their keyframe, late or missing
+// points, resends) is tested exactly in KeyframeReassembly.*.
+constexpr double kServerOverOwn = 4.0;
 constexpr double kServerJitterM = 0.015;
 constexpr double kJointOverParts = 1.5;
 constexpr double kJointJitterM = 0.01;
@@ -175,8 +182,8 @@ TEST(Collaboration, TwoAgentsFuseWithoutLossUnder20PercentLossAnd200msDelay) {
       // The server holds each agent's keyframes where the agent does: lost or reordered
       // pose updates, or keyframes placed from stale poses, show up as a server copy worse
       // than the agent's own estimate of the same run.
-      const double over_own = run == &clean ? kServerOverOwn : kServerOverOwnLossy;
-      EXPECT_LE(run->server_ate_m[a], over_own * run->own_ate_m[a] + kServerJitterM) << name << " agent " << a + 1;
+      EXPECT_LE(run->server_ate_m[a], kServerOverOwn * run->own_ate_m[a] + kServerJitterM)
+          << name << " agent " << a + 1;
     }
     // The fusion joins the parts without tearing them: one Sim(3) for both agents fits
     // about as well as each agent's own.
