@@ -344,6 +344,7 @@ nlohmann::json Summary(const RunOptions& o, const Flight& f, const AgentVoStats&
                             {"keyframes_dropped_unpersisted", s.trim.removed_unpersisted},
                             {"segments", s.segments},
                             {"relocalizations", s.relocalizations},
+                            {"weak_poses", s.weak_poses},
                             {"server_keyframes_added", s.server.keyframes_added},
                             {"server_keyframes_updated", s.server.keyframes_updated},
                             {"server_points_added", s.server.points_added},

@@ -64,6 +64,7 @@ TrackingResult AgentVo::TrackFrame(const Frame& frame) {
     stats_.segments = tracker_.segments_started() + 1;
     stats_.road_like_init_attempts = tracker_.road_like_init_attempts();
     stats_.relocalizations = tracker_.relocalizations();
+    stats_.weak_poses = tracker_.weak_poses();
     AddSample(&stats_.tracking_ms, stats_.frames - 1, ms);
   }
   // Nobody may be taking changes (standalone, server unreachable): keep the log bounded.

@@ -44,6 +44,7 @@ struct AgentVoStats {
   int segments = 0;
   int64_t road_like_init_attempts = 0;  ///< failed initializations on planar or distant views (road ahead?)
   int64_t relocalizations = 0;       ///< lost -> tracking again in the same segment
+  int64_t weak_poses = 0;            ///< tracked frames kept from making a keyframe (Tracker::weak_poses)
   size_t relocalization_index_size = 0;  ///< keyframes in the bag-of-words index
   size_t keyframes_in_map = 0;
   size_t map_points_in_map = 0;

@@ -34,6 +34,8 @@ TrackingResult Tracker::Track(VoFrame frame) {
       result.world_from_cam = frame.world_from_cam;
       result.inliers = frame.NumMatched();
       result.new_keyframe = true;
+      motion_base_ = MotionBase{frame.world_from_cam, frame.stamp_ns};
+      last_by_motion_model_ = false;
       last_frame_ = std::move(frame);
     }
     result.state = state_;
@@ -42,8 +44,10 @@ TrackingResult Tracker::Track(VoFrame frame) {
   }
 
   bool ok = false;
+  bool by_motion_model = false;
   if (state_ == TrackingState::kTracking) {
-    ok = (velocity_ && TrackWithMotionModel(&frame)) || TrackReferenceKeyframe(&frame);
+    by_motion_model = velocity_ && TrackWithMotionModel(&frame);
+    ok = by_motion_model || TrackReferenceKeyframe(&frame);
   } else {
     ok = Relocalize(&frame);
     if (ok) last_reloc_frame_index_ = frame.index;
@@ -57,16 +61,31 @@ TrackingResult Tracker::Track(VoFrame frame) {
     ok = inliers >= needed;
   }
   if (ok) {
+    // A frame the motion model could not place right after one it could (a sudden turn) is
+    // placed from the last pose by the reference keyframe's points: with few matches that
+    // pose can settle on a wrong translation that the local map then confirms (gen-2043: 124
+    // local-map inliers at a pose 1.3 m off, made a keyframe 'urgently' that the server kept).
+    // Such a weak pose makes no keyframe, and the velocity after it is measured across it,
+    // from the frame before. A second fallback in a row is trusted: the motion model is not
+    // coming back.
+    const bool weak_pose = shared_->options.weak_lone_fallback_poses &&
+                           state_ == TrackingState::kTracking && !by_motion_model && last_by_motion_model_;
+    last_by_motion_model_ = by_motion_model;
+    weak_poses_ += weak_pose;
     relocalizations_ += state_ == TrackingState::kLost;
     state_ = TrackingState::kTracking;
     lost_frames_ = 0;
     if (last_frame_) {
-      velocity_ = frame.cam_from_world() * last_frame_->world_from_cam;
-      velocity_dt_ns_ = frame.stamp_ns - last_frame_->stamp_ns;
+      const MotionBase from = !weak_pose && motion_base_ ? *motion_base_
+                                                         : MotionBase{last_frame_->world_from_cam, last_frame_->stamp_ns};
+      velocity_ = frame.cam_from_world() * from.world_from_cam;
+      velocity_dt_ns_ = frame.stamp_ns - from.stamp_ns;
     }
+    if (!weak_pose) motion_base_ = MotionBase{frame.world_from_cam, frame.stamp_ns};
     result.world_from_cam = frame.world_from_cam;
     result.inliers = inliers;
-    if (const KeyframeReason why = NeedNewKeyframe(frame, inliers); why != KeyframeReason::kNone) {
+    if (const KeyframeReason why = weak_pose ? KeyframeReason::kNone : NeedNewKeyframe(frame, inliers);
+        why != KeyframeReason::kNone) {
       ++keyframe_reasons_[static_cast<int>(why)];
       CreateKeyframe(frame);
       result.new_keyframe = true;
@@ -115,6 +134,8 @@ void Tracker::ResetToInitialization() {
   map_.reset();
   reference_kf_.reset();
   last_frame_.reset();
+  motion_base_.reset();
+  last_by_motion_model_ = false;
   velocity_.reset();
   lost_frames_ = 0;
 }

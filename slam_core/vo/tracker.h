@@ -49,6 +49,8 @@ class Tracker {
   int segments_started() const { return segments_started_; }
   int resets() const { return resets_; }
   int64_t relocalizations() const { return relocalizations_; }
+  /// Frames whose lone fallback pose was treated as weak (VoOptions::weak_lone_fallback_poses).
+  int64_t weak_poses() const { return weak_poses_; }
   int64_t road_like_init_attempts() const { return initializer_.road_like_attempts(); }
   /// Keyframes made per KeyframeReason (index = enum value).
   const KeyframeReasonCounts& keyframe_reasons() const { return keyframe_reasons_; }
@@ -87,6 +89,7 @@ class Tracker {
   TrackingState state_ = TrackingState::kInitializing;
   std::optional<VoFrame> last_frame_;
   int64_t relocalizations_ = 0;
+  int64_t weak_poses_ = 0;
   std::optional<SE3> velocity_;  ///< cam_from_world(k) * world_from_cam(k-1)
   int64_t velocity_dt_ns_ = 0;   ///< stamp(k) - stamp(k-1) of that motion
   std::shared_ptr<KeyFrame> reference_kf_;
@@ -96,6 +99,16 @@ class Tracker {
   int64_t last_kf_frame_index_ = 0;
   int64_t last_kf_stamp_ns_ = 0;
   int64_t last_reloc_frame_index_ = -1000;
+  /// The last tracked frame's pose came from the motion model (not the reference-keyframe
+  /// fallback or a relocalization).
+  bool last_by_motion_model_ = false;
+  /// The last tracked frame whose pose was not weak (see Track): the velocity is measured
+  /// from it.
+  struct MotionBase {
+    SE3 world_from_cam;
+    int64_t stamp_ns = 0;
+  };
+  std::optional<MotionBase> motion_base_;
   int lost_frames_ = 0;
   int segments_started_ = 0;
   KeyframeReasonCounts keyframe_reasons_{};

@@ -73,6 +73,11 @@ struct VoOptions {
   int min_inliers_frame = 10;          ///< pose-only optimization inliers to accept a frame pose
   int min_inliers_local_map = 30;      ///< inliers after local-map tracking to count as tracked
   int min_inliers_after_reloc = 50;
+  /// A frame the motion model could not place right after one it could (a sudden turn) is
+  /// placed by the reference keyframe's points from the last pose. With this on, that lone
+  /// fallback pose is weak: it makes no keyframe and the velocity after it is measured
+  /// across it (Tracker::Track; gen-2043: a keyframe 1.3 m off from one such frame).
+  bool weak_lone_fallback_poses = true;
   int local_map_max_keyframes = 80;    ///< cap on keyframes whose points are tracked
   double min_view_cos = 0.5;           ///< points seen at > 60 deg from their mean normal skipped
 
