@@ -34,7 +34,6 @@ TrackingResult Tracker::Track(VoFrame frame) {
       result.world_from_cam = frame.world_from_cam;
       result.inliers = frame.NumMatched();
       result.new_keyframe = true;
-      motion_base_ = MotionBase{frame.world_from_cam, frame.stamp_ns};
       last_by_motion_model_ = false;
       last_frame_ = std::move(frame);
     }
@@ -76,12 +75,16 @@ TrackingResult Tracker::Track(VoFrame frame) {
     state_ = TrackingState::kTracking;
     lost_frames_ = 0;
     if (last_frame_) {
-      const MotionBase from = !weak_pose && motion_base_ ? *motion_base_
-                                                         : MotionBase{last_frame_->world_from_cam, last_frame_->stamp_ns};
+      const MotionBase last{last_frame_->world_from_cam, last_frame_->stamp_ns};
+      const MotionBase& from = !weak_pose && before_weak_ ? *before_weak_ : last;
       velocity_ = frame.cam_from_world() * from.world_from_cam;
       velocity_dt_ns_ = frame.stamp_ns - from.stamp_ns;
+      if (weak_pose) {
+        before_weak_ = last;
+      } else {
+        before_weak_.reset();
+      }
     }
-    if (!weak_pose) motion_base_ = MotionBase{frame.world_from_cam, frame.stamp_ns};
     result.world_from_cam = frame.world_from_cam;
     result.inliers = inliers;
     if (const KeyframeReason why = weak_pose ? KeyframeReason::kNone : NeedNewKeyframe(frame, inliers);
@@ -134,7 +137,7 @@ void Tracker::ResetToInitialization() {
   map_.reset();
   reference_kf_.reset();
   last_frame_.reset();
-  motion_base_.reset();
+  before_weak_.reset();
   last_by_motion_model_ = false;
   velocity_.reset();
   lost_frames_ = 0;

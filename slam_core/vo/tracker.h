@@ -102,13 +102,13 @@ class Tracker {
   /// The last tracked frame's pose came from the motion model (not the reference-keyframe
   /// fallback or a relocalization).
   bool last_by_motion_model_ = false;
-  /// The last tracked frame whose pose was not weak (see Track): the velocity is measured
-  /// from it.
+  /// After a weak pose (see Track): the tracked frame before it, which the next velocity is
+  /// measured from.
   struct MotionBase {
     SE3 world_from_cam;
     int64_t stamp_ns = 0;
   };
-  std::optional<MotionBase> motion_base_;
+  std::optional<MotionBase> before_weak_;
   int lost_frames_ = 0;
   int segments_started_ = 0;
   KeyframeReasonCounts keyframe_reasons_{};
