@@ -50,7 +50,7 @@ DetectionOutcome DetectionStage::CloseLoopOf(const PlaceDetection& d, ServerEven
 
 DetectionOutcome DetectionStage::FuseMapsOf(const PlaceDetection& d, ServerEvent e) const {
   DetectionOutcome out;
-  const FusionReport r = FuseMaps(stack_, d, [this](MapId absorbed, MapId kept) {
+  const FusionReport r = FuseMaps(stack_, d, options_.mapping.overlap_weld_depth_ratio, [this](MapId absorbed, MapId kept) {
     if (hooks_.maps_fused) hooks_.maps_fused(absorbed, kept);
   });
   if (!r.fused) {
@@ -65,6 +65,9 @@ DetectionOutcome DetectionStage::FuseMapsOf(const PlaceDetection& d, ServerEvent
              " keyframes moved, " + std::to_string(r.points_merged) + " points merged, overlap " +
              (r.refined ? "refined on " : "not refined, ") + std::to_string(r.overlap_inliers) + "/" +
              std::to_string(r.overlap_pairs) + " point pairs";
+  if (options_.mapping.overlap_weld_depth_ratio > 0.0) {
+    e.detail += ", welded " + std::to_string(r.weld_merged) + " on " + std::to_string(r.weld_targets) + " keyframes";
+  }
   out.forget = r.absorbed;
   if (options_.optimization.global_ba_after_fusion) out.optimize = r.kept;
   out.event = std::move(e);

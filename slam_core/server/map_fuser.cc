@@ -6,6 +6,7 @@
 
 #include "slam_core/map_ops/keyframe_matching.h"
 #include "slam_core/map_ops/point_fusion.h"
+#include "slam_core/server/overlap_weld.h"
 #include "slam_core/solvers/similarity.h"
 
 namespace ccm {
@@ -81,7 +82,7 @@ void TransformPoint(MapPoint* mp, const Sim3& S) {
 
 }  // namespace
 
-FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
+FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d, double weld_depth_ratio,
                       const std::function<void(MapId absorbed, MapId kept)>& on_fused) {
   const auto t0 = std::chrono::steady_clock::now();
   FusionReport r;
@@ -125,10 +126,10 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
   absorbed->RescaleAnchors([&S](KeyframeId) { return S.scale(); });
   kept->AbsorbTables(absorbed);
 
+  std::set<KeyframeId> absorbed_ids;
+  for (const auto& kf : absorbed->map().keyframes()) absorbed_ids.insert(kf->id());
   // Refine the transform on the whole overlap before anything is merged.
   {
-    std::set<KeyframeId> absorbed_ids;
-    for (const auto& kf : absorbed->map().keyframes()) absorbed_ids.insert(kf->id());
     const auto candidate_points = PointsOfAll(dst, Around(dst, c));
     if (const auto q_side_from_c_side =
             RefineOverlap(dst, Around(dst, q), candidate_points, *q, &r.overlap_pairs, &r.overlap_inliers)) {
@@ -167,6 +168,23 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d,
   for (const auto& [old_id, keep] : fusion.replaced) kept->RecordReplacement(old_id, keep);
   for (const auto& kf : around_q) dst.UpdateConnections(kf->id());
   for (const auto& kf : around_c) dst.UpdateConnections(kf->id());
+  // Then the rest of the overlap, wherever the two sides saw the same scene.
+  OverlapWeldReport weld;
+  if (weld_depth_ratio > 0.0) {
+    std::set<KeyframeId> kept_ids;
+    for (const auto& kf : dst.keyframes()) {
+      if (!absorbed_ids.count(kf->id())) kept_ids.insert(kf->id());
+    }
+    OverlapWeldOptions wo;
+    wo.max_centre_depth_ratio = weld_depth_ratio;
+    wo.radius_px = kFusionRadiusPx;
+    weld = WeldOverlap(&dst, absorbed_ids, kept_ids, wo);
+  }
+  for (const auto& [old_id, keep] : weld.fusion.replaced) kept->RecordReplacement(old_id, keep);
+  fusion.fused += weld.fusion.fused;
+  fusion.linked += weld.fusion.linked;
+  r.weld_targets = weld.targets;
+  r.weld_merged = weld.fusion.fused + weld.fusion.linked;
   dst.AddLoopEdge(q->id(), c->id());
   r.points_merged = fusion.fused + fusion.linked;
 

@@ -27,12 +27,14 @@ struct FusionReport {
   int points_merged = 0;
   int overlap_pairs = 0, overlap_inliers = 0;  ///< 3D-3D pairs of the overlap refinement
   bool refined = false;                        ///< the overlap refined the verified Sim(3)
+  int weld_targets = 0, weld_merged = 0;       ///< the rest of the overlap (overlap_weld.h)
   double seconds = 0.0;
 };
 
 /// Fuses the maps of `detection` (kind kFusion). `on_fused(absorbed, kept)` runs while both
 /// maps are still locked, so the database can be re-pointed before anyone queries it.
-FusionReport FuseMaps(MapStack* stack, const PlaceDetection& detection,
+/// `weld_depth_ratio` > 0 welds the rest of the overlap (OverlapWeldOptions::max_centre_depth_ratio).
+FusionReport FuseMaps(MapStack* stack, const PlaceDetection& detection, double weld_depth_ratio,
                       const std::function<void(MapId absorbed, MapId kept)>& on_fused);
 
 }  // namespace ccm

@@ -33,6 +33,9 @@ std::string ServerMappingOptions::Validate() const {
     return "mapping.duplicate_distance_ratio must be in [0, 1)";
   }
   if (!(duplicate_max_angle_deg >= 0.0)) return "mapping.duplicate_max_angle_deg must be >= 0";
+  if (!(overlap_weld_depth_ratio >= 0.0 && overlap_weld_depth_ratio <= 10.0)) {
+    return "mapping.overlap_weld_depth_ratio must be in [0, 10]";
+  }
   return "";
 }
 

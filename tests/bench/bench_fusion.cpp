@@ -192,6 +192,11 @@ int main(int argc, char** argv) {
                  "depth, 15 deg) leaves as its anchor (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.99));
+  app.add_option("--weld-ratio", replay.server.mapping.overlap_weld_depth_ratio,
+                 "after a fusion, weld the whole overlap: keyframes closer than this share of the scene depth "
+                 "(0: only the verified pair's neighbourhood; 0.5 tried)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--share-own-after", replay.server.share_own_keyframes_after_s,
                  "map sharing also sends an agent its own keyframes this many seconds older than its reference "
                  "(0: other agents' only)")
