@@ -1,10 +1,11 @@
 // Map fusion (CCM-SLAM 4.8): two server maps that place recognition found overlapping
 // become one. The smaller map is moved into the frame of the larger one with the verified
 // Sim(3) (keyframes rigidly, points and positions scaled), its keyframes and points join the
-// larger map, matched and duplicate points around the overlap are merged, the overlap gets a
-// loop edge, every handler of the absorbed map is re-pointed with its Sim(3) and scale
-// composed, and the absorbed map leaves the stack. A global BA follows (the caller schedules
-// it). Synchronous; takes both maps' structure locks exclusively (ascending map id).
+// larger map, matched and duplicate points around the overlap are merged (optionally the
+// whole overlap: overlap_weld.h), the overlap gets a loop edge, every handler of the absorbed
+// map is re-pointed with its Sim(3) and scale composed, and the absorbed map leaves the stack.
+// A global BA follows (the caller schedules it). Synchronous; takes both maps' structure
+// locks exclusively (ascending map id).
 #pragma once
 
 #include <functional>
