@@ -190,6 +190,11 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
       ->check(CLI::Range(0.0, 89.9));
   app->add_flag("--ba-inverse-depth", a->replay.server.optimization.global_ba_low_parallax_inverse_depth,
                 "points under --ba-min-parallax move as inverse depths from their reference keyframe instead of being held");
+  app->add_option("--weld-ratio", a->replay.server.mapping.overlap_weld_depth_ratio,
+                  "after a fusion, weld the whole overlap: keyframes closer than this share of the scene depth "
+                  "(0: only the verified pair's neighbourhood)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   app->add_flag("--no-final-ba", a->no_final_ba,
                 "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
   app->add_option("--load-map", a->load_map, "start from a saved map stack");
