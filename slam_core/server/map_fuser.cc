@@ -169,22 +169,17 @@ FusionReport FuseMaps(MapStack* stack, const PlaceDetection& d, double weld_dept
   for (const auto& kf : around_q) dst.UpdateConnections(kf->id());
   for (const auto& kf : around_c) dst.UpdateConnections(kf->id());
   // Then the rest of the overlap, wherever the two sides saw the same scene.
-  OverlapWeldReport weld;
   if (weld_depth_ratio > 0.0) {
-    std::set<KeyframeId> kept_ids;
-    for (const auto& kf : dst.keyframes()) {
-      if (!absorbed_ids.count(kf->id())) kept_ids.insert(kf->id());
-    }
     OverlapWeldOptions wo;
     wo.max_centre_depth_ratio = weld_depth_ratio;
     wo.radius_px = kFusionRadiusPx;
-    weld = WeldOverlap(&dst, absorbed_ids, kept_ids, wo);
+    const OverlapWeldReport weld = WeldOverlap(&dst, absorbed_ids, wo);
+    for (const auto& [old_id, keep] : weld.fusion.replaced) kept->RecordReplacement(old_id, keep);
+    fusion.fused += weld.fusion.fused;
+    fusion.linked += weld.fusion.linked;
+    r.weld_targets = weld.targets;
+    r.weld_merged = weld.fusion.fused + weld.fusion.linked;
   }
-  for (const auto& [old_id, keep] : weld.fusion.replaced) kept->RecordReplacement(old_id, keep);
-  fusion.fused += weld.fusion.fused;
-  fusion.linked += weld.fusion.linked;
-  r.weld_targets = weld.targets;
-  r.weld_merged = weld.fusion.fused + weld.fusion.linked;
   dst.AddLoopEdge(q->id(), c->id());
   r.points_merged = fusion.fused + fusion.linked;
 

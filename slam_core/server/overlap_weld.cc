@@ -14,12 +14,11 @@ struct Pose {
   Eigen::Vector3d centre, axis;
 };
 
-std::vector<Pose> PosesOf(const Map& map, const std::set<KeyframeId>& ids) {
+// The map's usable keyframes inside side `a` (inside = true) or outside it.
+std::vector<Pose> PosesOf(const Map& map, const std::set<KeyframeId>& a, bool inside) {
   std::vector<Pose> out;
-  out.reserve(ids.size());
-  for (const KeyframeId id : ids) {
-    const auto kf = map.keyframe(id);
-    if (!kf || kf->bad() || kf->num_keypoints() == 0) continue;
+  for (const auto& kf : map.keyframes()) {
+    if (a.count(kf->id()) != (inside ? 1u : 0u) || kf->bad() || kf->num_keypoints() == 0) continue;
     const SE3 w = kf->world_from_cam();
     out.push_back({kf, w.translation(), w.rotation() * Eigen::Vector3d::UnitZ()});
   }
@@ -28,10 +27,9 @@ std::vector<Pose> PosesOf(const Map& map, const std::set<KeyframeId>& ids) {
 
 }  // namespace
 
-OverlapWeldReport WeldOverlap(Map* map, const std::set<KeyframeId>& a, const std::set<KeyframeId>& b,
-                              const OverlapWeldOptions& options) {
+OverlapWeldReport WeldOverlap(Map* map, const std::set<KeyframeId>& a, const OverlapWeldOptions& options) {
   OverlapWeldReport report;
-  const std::vector<Pose> targets = PosesOf(*map, a), sources = PosesOf(*map, b);
+  const std::vector<Pose> targets = PosesOf(*map, a, true), sources = PosesOf(*map, a, false);
   if (targets.empty() || sources.empty()) return report;
   const double min_cos = std::cos(options.max_axis_deg * M_PI / 180.0);
   std::unordered_set<KeyframeId> touched;

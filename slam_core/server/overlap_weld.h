@@ -1,5 +1,5 @@
-// Welding the whole overlap of two maps just joined (a fusion) or of two stretches of one map
-// (a loop). The verified detection merges the points around one keyframe pair; two agents
+// Welding the whole overlap of two maps a fusion just joined. The verified detection merges
+// the points around one keyframe pair; two agents
 // that flew the same corridor for seconds share far more than that, and what is not merged
 // is held by nothing but the one pair: the parts then rotate and scale about it in every
 // later BA (a part accurate on its own, centimetres off under the map's one Sim(3)). Here
@@ -26,13 +26,13 @@ struct OverlapWeldOptions {
 };
 
 struct OverlapWeldReport {
-  int targets = 0;  ///< keyframes of side a that had keyframes of side b in view
+  int targets = 0;  ///< keyframes of side a that had keyframes of the other side in view
   PointFusionResult fusion;
 };
 
-/// Projects the points of side `b`'s keyframes into the keyframes of side `a` that see the
-/// same scene and fuses them; connections of every touched keyframe are updated.
-OverlapWeldReport WeldOverlap(Map* map, const std::set<KeyframeId>& a, const std::set<KeyframeId>& b,
-                              const OverlapWeldOptions& options = {});
+/// Projects the points of the map's other keyframes into the keyframes of side `a` (the
+/// absorbed map's) that see the same scene and fuses them; connections of every touched
+/// keyframe are updated.
+OverlapWeldReport WeldOverlap(Map* map, const std::set<KeyframeId>& a, const OverlapWeldOptions& options = {});
 
 }  // namespace ccm
