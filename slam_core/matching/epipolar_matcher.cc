@@ -38,6 +38,48 @@ std::vector<double> BandSines(const EpipolarView& view2, const Eigen::Vector3d& 
   return band_sin;
 }
 
+// All pairs without groups: a new keyframe is matched against ~10-20 neighbours, about 10^6
+// pairs each of which a few percent lie in the band, and visiting every pair was 7-18 % of an
+// agent's CPU (docs/deployment.md "Footprint by thread"). A float pass over view 2 in
+// structure-of-arrays form, which the compiler vectorizes, keeps a superset of the band (its
+// margin is far above float rounding on unit vectors); `visit` then applies the exact double
+// test to those pairs in the same order, so the matches are exactly those of visiting every
+// pair. (Sorting view 2 by its angle around the baseline and visiting only the window a plane
+// reaches was slower: under forward motion most keypoints sit near the epipole, where the
+// window is wide.)
+template <typename Visit>
+void ScanAllPairs(const std::vector<Eigen::Vector3d>& normal1, const EpipolarView& view2,
+                  const std::vector<double>& band_sin, Visit&& visit) {
+  constexpr float kMargin = 1e-4f;
+  constexpr size_t kBlock = 16;  // a block without a hit (most of them) costs a few vector ops
+  const size_t n2 = band_sin.size(), padded = (n2 + kBlock - 1) / kBlock * kBlock;
+  // Padding: band -1 is never reached (|dot| - band >= 1).
+  std::vector<float> x(padded, 0.0f), y(padded, 0.0f), z(padded, 0.0f), band(padded, -1.0f);
+  for (size_t j = 0; j < n2; ++j) {
+    x[j] = static_cast<float>(view2.bearings[j].x());
+    y[j] = static_cast<float>(view2.bearings[j].y());
+    z[j] = static_cast<float>(view2.bearings[j].z());
+    if (band_sin[j] >= 0.0) band[j] = static_cast<float>(band_sin[j]) + kMargin;
+  }
+  float d[kBlock];
+  for (size_t i = 0; i < normal1.size(); ++i) {
+    if (normal1[i].isZero()) continue;
+    const float nx = static_cast<float>(normal1[i].x()), ny = static_cast<float>(normal1[i].y()),
+                nz = static_cast<float>(normal1[i].z());
+    for (size_t j0 = 0; j0 < padded; j0 += kBlock) {
+      int hit = 0;
+      for (size_t k = 0; k < kBlock; ++k) {
+        d[k] = std::fabs(nx * x[j0 + k] + ny * y[j0 + k] + nz * z[j0 + k]) - band[j0 + k];
+        hit |= d[k] <= 0.0f;
+      }
+      if (hit == 0) continue;
+      for (size_t k = 0; k < kBlock; ++k) {
+        if (d[k] <= 0.0f) visit(static_cast<int>(i), static_cast<int>(j0 + k));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 std::string EpipolarMatchOptions::Validate() const {
@@ -77,11 +119,16 @@ std::vector<FeatureMatch> MatchEpipolar(const EpipolarView& view1, const Epipola
   // The ratio test runs among the epipolar-consistent candidates only: elsewhere in the image a
   // similar-looking corner is no ambiguity.
   std::vector<internal::BestTwo> best(n1);
-  internal::ForEachPair(n1, n2, groups, [&](int i, int j) {
+  const auto visit = [&](int i, int j) {
     if (band_sin[j] < 0.0 || normal1[i].isZero()) return;
     if (std::fabs(normal1[i].dot(view2.bearings[j])) > band_sin[j]) return;
     best[i].Add(j, HammingDistance(view1.features.descriptors[i], view2.features.descriptors[j]));
-  });
+  };
+  if (groups != nullptr) {
+    internal::ForEachPair(n1, n2, groups, visit);
+  } else {
+    ScanAllPairs(normal1, view2, band_sin, visit);
+  }
   std::vector<FeatureMatch> matches =
       internal::ResolveOneToOne(best, n2, [&](int, const internal::BestTwo& b) {
         return b.best <= options.max_distance && b.PassesRatio(options.ratio);

@@ -327,6 +327,37 @@ TEST(EpipolarMatcher, KnownPoseGivesCorrectMatchesWrongPoseFew) {
   EXPECT_TRUE(MatchEpipolar(v1, v2, SE3(), s.pyramid, o).empty());
 }
 
+// The brute-force scan prefilters in float; its matches must be exactly those of visiting
+// every pair with the double test (one group holding every keypoint), for bands of any width.
+TEST(EpipolarMatcher, TheFastScanMatchesExactlyWhatEveryPairGives) {
+  const TwoView tv = MakeTwoView();
+  const Scene& s = tv.scene;
+  MatchGroups all;
+  all.groups1.resize(1);
+  all.groups2.resize(1);
+  for (int i = 0; i < static_cast<int>(s.f1.size()); ++i) all.groups1[0].push_back(i);
+  for (int j = 0; j < static_cast<int>(s.f2.size()); ++j) all.groups2[0].push_back(j);
+  const EpipolarView v1{s.f1, tv.bearings1}, v2{s.f2, tv.bearings2};
+  for (const double chi2 : {0.05, 3.84, 40.0}) {
+    EpipolarMatchOptions o;
+    o.rad_per_px = 1.0 / 450.0;
+    o.chi2_threshold = chi2;
+    for (const SE3& pose : {tv.cam2_from_cam1, SE3(tv.cam2_from_cam1.rotation(), Eigen::Vector3d(0.05, 0.4, 0.1))}) {
+      const auto fast = MatchEpipolar(v1, v2, pose, s.pyramid, o);
+      const auto every = MatchEpipolar(v1, v2, pose, s.pyramid, o, &all);
+      ASSERT_EQ(fast.size(), every.size()) << "chi2 " << chi2;
+      for (size_t k = 0; k < fast.size(); ++k) {
+        EXPECT_EQ(fast[k].index1, every[k].index1);
+        EXPECT_EQ(fast[k].index2, every[k].index2);
+        EXPECT_EQ(fast[k].distance, every[k].distance);
+      }
+      if (chi2 == 3.84 && pose.translation().isApprox(tv.cam2_from_cam1.translation())) {
+        EXPECT_GE(fast.size(), 250u);
+      }
+    }
+  }
+}
+
 TEST(WindowMatcher, TracksInitialKeypointsOverTwoFrames) {
   const cv::Matx33d step =
       test::Translation(12.0, -6.0) * test::RotateScaleAbout({kW / 2.0, kH / 2.0}, 3.0, 1.0);
