@@ -1,45 +1,159 @@
-// Pose-only optimization (declared in bundle_adjustment.h).
+// Pose-only optimization (declared in bundle_adjustment.h): ORB-SLAM's rounds of robust
+// passes with reclassification, each pass a small Levenberg-Marquardt of its own.
 #include <algorithm>
 #include <chrono>
 #include <memory>
 
-#include <ceres/loss_function.h>
-#include <ceres/problem.h>
-#include <ceres/solver.h>
+#include <cmath>
+#include <string>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 
 #include "slam_core/optimization/bundle_adjustment.h"
 #include "slam_core/optimization/pose_manifold.h"
-#include "slam_core/optimization/reprojection_cost_analytic.h"
 
 namespace ccm::opt {
 namespace {
 
-ceres::Solver::Summary RunPosePass(const CameraModel& camera, const std::vector<PointObservation>& obs,
-                                   const std::vector<bool>& active, bool robust,
-                                   const PoseOptimizerOptions& options, Se3Block* cam_from_world) {
-  ceres::Problem cp;  // takes ownership of costs, loss and manifold
-  ceres::LossFunction* loss = robust ? new ceres::HuberLoss(options.huber_delta) : nullptr;
+// One pass of Levenberg-Marquardt over the 6-dof pose, written out instead of a
+// ceres::Problem: tracking runs two pose optimizations of up to four passes per frame, and
+// building, preprocessing and tearing down a Problem of a few hundred residuals cost more
+// than the 6x6 solves themselves (docs/deployment.md "Footprint by thread"). Same residual
+// and Jacobian as PoseOnlyCostAnalytic, same cost convention as Ceres (1/2 sum rho(s), Huber
+// rho with Ceres' first-order correction, i.e. weight rho'(s)), same trust-region update
+// (Nielsen's rule, Ceres' defaults) and the same stopping tolerances.
+struct PassResult {
+  bool usable = false;
+  double initial_cost = 0.0, final_cost = 0.0;
+  int iterations = 0;
+  std::string message;
+};
+
+struct PoseState {
+  Eigen::Quaterniond q;  // cam_from_world
+  Eigen::Vector3d t;
+};
+
+// The pass's cost at `x`, and with `h`/`g` its Gauss-Newton system in the tangent
+// (left rotation increment, then translation). False when a point cannot be projected.
+bool Linearize(const CameraModel& camera, const std::vector<PointObservation>& obs, const std::vector<bool>& active,
+               double huber, const PoseState& x, double* cost, Eigen::Matrix<double, 6, 6>* h,
+               Eigen::Matrix<double, 6, 1>* g) {
+  const Eigen::Matrix3d R = x.q.toRotationMatrix();
+  const double d2 = huber * huber;
+  double total = 0.0;
+  if (h) h->setZero(), g->setZero();
+  Eigen::Vector2d uv;
+  Eigen::Matrix<double, 2, 3> J;
+  Eigen::Matrix<double, 2, 6> Jx;
   for (size_t i = 0; i < obs.size(); ++i) {
     if (!active[i]) continue;
-    cp.AddResidualBlock(PoseOnlyCostAnalytic::Create(&camera, obs[i].point_w, obs[i].uv_px, obs[i].sigma_px),
-                        loss, cam_from_world->data());
+    const Eigen::Vector3d rotated = R * obs[i].point_w;
+    if (!camera.ProjectForCost(rotated + x.t, &uv, h ? &J : nullptr)) return false;
+    const double inv_sigma = 1.0 / obs[i].sigma_px;
+    const Eigen::Vector2d r = (uv - obs[i].uv_px) * inv_sigma;
+    const double s = r.squaredNorm();
+    double w = 1.0;
+    if (huber > 0.0 && s > d2) {
+      const double root = std::sqrt(s);
+      total += 2.0 * huber * root - d2;
+      w = huber / root;
+    } else {
+      total += s;
+    }
+    if (!h) continue;
+    J *= inv_sigma;
+    // d(p_cam)/d(phi) = -[R X]x for R' = exp(phi) R; d(p_cam)/d(t) = I.
+    Jx.leftCols<3>() << J(0, 2) * rotated.y() - J(0, 1) * rotated.z(), J(0, 0) * rotated.z() - J(0, 2) * rotated.x(),
+        J(0, 1) * rotated.x() - J(0, 0) * rotated.y(), J(1, 2) * rotated.y() - J(1, 1) * rotated.z(),
+        J(1, 0) * rotated.z() - J(1, 2) * rotated.x(), J(1, 1) * rotated.x() - J(1, 0) * rotated.y();
+    Jx.rightCols<3>() = J;
+    h->noalias() += w * Jx.transpose() * Jx;
+    g->noalias() += w * Jx.transpose() * r;
   }
-  ceres::Solver::Summary summary;
-  if (cp.NumResidualBlocks() == 0) {
-    delete loss;
-    return summary;
+  *cost = 0.5 * total;
+  return true;
+}
+
+PoseState Plus(const PoseState& x, const Eigen::Matrix<double, 6, 1>& dx) {
+  const Eigen::Vector3d phi = dx.head<3>();
+  const double angle = phi.norm();
+  const Eigen::Quaterniond dq =
+      angle > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, phi / angle))
+                    : Eigen::Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
+  return {(dq * x.q).normalized(), x.t + dx.tail<3>()};
+}
+
+PassResult RunPosePass(const CameraModel& camera, const std::vector<PointObservation>& obs,
+                       const std::vector<bool>& active, bool robust, const PoseOptimizerOptions& options,
+                       Se3Block* cam_from_world) {
+  // Ceres' defaults for a trust-region LM solve.
+  constexpr double kFunctionTolerance = 1e-6, kGradientTolerance = 1e-10, kParameterTolerance = 1e-8;
+  constexpr double kMinRelativeDecrease = 1e-3, kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;
+  PassResult out;
+  const double huber = robust ? options.huber_delta : 0.0;
+  PoseState x{Eigen::Quaterniond((*cam_from_world)[3], (*cam_from_world)[0], (*cam_from_world)[1],
+                                 (*cam_from_world)[2]).normalized(),
+              Eigen::Vector3d((*cam_from_world)[4], (*cam_from_world)[5], (*cam_from_world)[6])};
+  double cost = 0.0;
+  Eigen::Matrix<double, 6, 6> h;
+  Eigen::Matrix<double, 6, 1> g;
+  if (!Linearize(camera, obs, active, huber, x, &cost, &h, &g) || !std::isfinite(cost)) {
+    out.message = "pose pass: a point does not project at the initial pose";
+    return out;
   }
-  cp.SetManifold(cam_from_world->data(), NewSe3Manifold());
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = options.iterations_per_round;
-  so.num_threads = 1;
-  // A trust-region step may carry a point behind the camera; the cost then fails to
-  // evaluate and Ceres treats the step as infinitely bad and shrinks it (correct), but
-  // would log a warning each time: hundreds per flight.
-  so.logging_type = ceres::SILENT;
-  ceres::Solve(so, &cp, &summary);
-  return summary;
+  out.initial_cost = cost;
+  double mu = 1e-4, nu = 2.0;  // 1 / Ceres' initial trust-region radius
+  out.message = "no convergence within " + std::to_string(options.iterations_per_round) + " iterations";
+  for (int it = 0; it < options.iterations_per_round; ++it) {
+    ++out.iterations;
+    if (g.lpNorm<Eigen::Infinity>() <= kGradientTolerance) {
+      out.message = "gradient tolerance reached";
+      break;
+    }
+    Eigen::Matrix<double, 6, 6> a = h;
+    a.diagonal() += mu * h.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    const Eigen::Matrix<double, 6, 1> dx = a.ldlt().solve(-g);
+    if (!dx.allFinite()) {
+      out.message = "pose pass: the linear solve failed";
+      break;
+    }
+    const double x_norm = std::sqrt(x.q.coeffs().squaredNorm() + x.t.squaredNorm());
+    if (dx.norm() <= kParameterTolerance * (x_norm + kParameterTolerance)) {
+      out.message = "parameter tolerance reached";
+      break;
+    }
+    const PoseState candidate = Plus(x, dx);
+    // Linearized at the candidate at once: most steps are taken, so this saves a pass.
+    double new_cost = 0.0;
+    Eigen::Matrix<double, 6, 6> h_new;
+    Eigen::Matrix<double, 6, 1> g_new;
+    const bool evaluated = Linearize(camera, obs, active, huber, candidate, &new_cost, &h_new, &g_new) &&
+                           std::isfinite(new_cost);
+    const double model_decrease = -(g.dot(dx) + 0.5 * dx.dot(h * dx));
+    const double rho = evaluated && model_decrease > 0.0 ? (cost - new_cost) / model_decrease : -1.0;
+    if (rho < kMinRelativeDecrease) {  // a worse step (or a point behind the camera): shrink
+      mu *= nu;
+      nu *= 2.0;
+      continue;
+    }
+    mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+    nu = 2.0;
+    const double decrease = cost - new_cost;
+    x = candidate;
+    cost = new_cost;
+    h = h_new;
+    g = g_new;
+    if (decrease <= kFunctionTolerance * (cost + decrease)) {
+      out.message = "function tolerance reached";
+      break;
+    }
+  }
+  out.final_cost = cost;
+  out.usable = true;
+  *cam_from_world = {x.q.x(), x.q.y(), x.q.z(), x.q.w(), x.t.x(), x.t.y(), x.t.z()};
+  return out;
 }
 
 // chi2 of every observation at the pose; unprojectable ones are outliers.
@@ -83,16 +197,16 @@ OptimizationSummary OptimizePose(const CameraModel& camera, const std::vector<Po
   bool ok = true;
   for (int round = 0; round < options.num_rounds && num_active >= options.min_inliers; ++round) {
     const bool robust = round + 1 < options.num_rounds;
-    const ceres::Solver::Summary s = RunPosePass(camera, observations, active, robust, options, &pose);
-    if (!s.IsSolutionUsable()) {
+    const PassResult s = RunPosePass(camera, observations, active, robust, options, &pose);
+    if (!s.usable) {
       ok = false;
-      out.message = s.BriefReport();
+      out.message = s.message;
       break;
     }
     if (round == 0) out.initial_cost = s.initial_cost;
     out.final_cost = s.final_cost;
-    out.iterations += std::max(0, static_cast<int>(s.iterations.size()) - 1);
-    out.message = s.BriefReport();
+    out.iterations += s.iterations;
+    out.message = s.message;
     const std::vector<bool> before = active;
     num_active = ClassifyObservations(camera, observations, UnpackSe3(pose), options.chi2_threshold, &active);
     // Classification converged: further robust rounds would repeat this one exactly, so go

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <ceres/numeric_diff_cost_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
 
 #include "slam_core/optimization/pose_manifold.h"
 #include "slam_core/optimization/reprojection_cost.h"
@@ -222,6 +224,49 @@ TEST(OptimizePose, ReachesExactPoseWithoutNoiseFromLargeError) {
   EXPECT_LT(RotationAngleDeg(pose.rotation(), c.truth.rotation()), 1e-5);
   EXPECT_LT(s.final_cost, 1e-9);
   EXPECT_EQ(s.num_inliers, static_cast<int>(c.obs.size()));
+}
+
+// The pose optimizer's own Levenberg-Marquardt (no ceres::Problem, for tracking's speed)
+// must reach the minimum Ceres reaches on the same residuals: noisy observations, one plain
+// round, both camera models, compared with a tightly converged Ceres solve.
+TEST(OptimizePose, ReachesTheMinimumCeresReachesOnTheSameResiduals) {
+  const auto pinhole = testing::MakeTestCamera();
+  const auto fisheye = MakeFisheye();
+  for (const CameraModel* camera : {pinhole.get(), fisheye.get()}) {
+    PoseOnlyCase c = MakePoseOnlyCase(*camera, 21);
+    std::vector<PointObservation> inliers;
+    for (size_t i = 0; i < c.obs.size(); ++i) {
+      if (!c.is_outlier[i]) inliers.push_back(c.obs[i]);
+    }
+    ASSERT_GT(inliers.size(), 100u);
+    const SE3 start(c.truth.rotation() * Eigen::Quaterniond(Eigen::AngleAxisd(2.0 * M_PI / 180, Eigen::Vector3d::UnitY())),
+                    c.truth.translation() + Eigen::Vector3d(0.04, 0.02, -0.03));
+    SE3 ours = start;
+    PoseOptimizerOptions po;
+    po.num_rounds = 1;  // one plain round: the pass alone
+    po.iterations_per_round = 50;
+    po.chi2_threshold = 1e9;
+    const OptimizationSummary s = OptimizePose(*camera, inliers, &ours, po);
+    ASSERT_TRUE(s.usable) << s.message;
+
+    Se3Block block = PackSe3(start.inverse());
+    ceres::Problem problem;
+    for (const PointObservation& o : inliers) {
+      problem.AddResidualBlock(PoseOnlyCostAnalytic::Create(camera, o.point_w, o.uv_px, o.sigma_px), nullptr, block.data());
+    }
+    problem.SetManifold(block.data(), NewSe3Manifold());
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = 100;
+    so.function_tolerance = so.gradient_tolerance = so.parameter_tolerance = 1e-14;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    const SE3 reference = UnpackSe3(block).inverse();
+    EXPECT_LT((ours.translation() - reference.translation()).norm(), 1e-6);
+    EXPECT_LT(RotationAngleDeg(ours.rotation(), reference.rotation()), 1e-5);
+    EXPECT_NEAR(s.final_cost, summary.final_cost, 1e-6 * summary.final_cost);
+    EXPECT_GT((ours.translation() - c.truth.translation()).norm(), 0.0);  // noise: not the truth itself
+  }
 }
 
 TEST(OptimizePose, TooFewObservationsIsNotUsable) {
