@@ -195,6 +195,13 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
                   "(0: only the verified pair's neighbourhood)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 10.0));
+  app->add_option("--cut-at", a->replay.link_cut_at_s,
+                  "cut every agent's link this long after its first frame, data time [s]: its batches are held "
+                  "and arrive in one burst when the link returns, no acks or map sharing meanwhile (-1: no cut)")
+      ->capture_default_str();
+  app->add_option("--cut-s", a->replay.link_cut_s, "length of the --cut-at outage, data time [s]")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app->add_flag("--no-final-ba", a->no_final_ba,
                 "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
   app->add_option("--load-map", a->load_map, "start from a saved map stack");

@@ -41,6 +41,8 @@ struct Agent {
   std::unique_ptr<ChangePacker> packer;
   std::optional<Frame> next;
   int64_t last_send_ns = -1;
+  int64_t first_ns = -1;
+  std::vector<AgentBatch> held;  // packed during a link cut, delivered when it ends
   int64_t frames = 0, tracked = 0;
   Trajectory gt;
 };
@@ -86,7 +88,7 @@ class Session {
     }
     for (auto& a : agents_) {
       a->packer->FlushNext();  // the end of the flights: whatever the send delay still holds
-      Exchange(a.get(), a->last_send_ns + 1);
+      Exchange(a.get(), a->last_send_ns + 1, /*last=*/true);
     }
     backend_->ProcessAllQueued();
     if (o_.final_global_ba) {
@@ -163,27 +165,42 @@ class Session {
     a->tracked += r.world_from_cam.has_value();
     ++frames_done_;
     if (o_.threaded && r.new_keyframe) a->vo->WaitUntilMappingIdle();
-    if (a->last_send_ns < 0) a->last_send_ns = f.stamp_ns;
+    if (a->last_send_ns < 0) a->last_send_ns = a->first_ns = f.stamp_ns;
     if (f.stamp_ns - a->last_send_ns >= static_cast<int64_t>(o_.send_period_s * 1e9)) Exchange(a, f.stamp_ns);
   }
 
   // One communication round: changes to the server, acks and the neighbourhood back.
-  void Exchange(Agent* a, int64_t stamp_ns) {
+  // The last round of a flight (`last`) always reaches the server: the agent drains its link.
+  void Exchange(Agent* a, int64_t stamp_ns, bool last = false) {
     a->last_send_ns = stamp_ns;
     AgentBatch batch = a->packer->Pack(a->vo->TakeChanges(), stamp_ns);
     const KeyframeId ref = batch.reference_kf;
-    if (!batch.empty()) {
-      if (o_.on_batch) {
-        std::lock_guard<std::mutex> lock(batch_mutex_);
-        o_.on_batch(batch);
-      }
-      backend_->Submit(std::move(batch));
+    if (!last && InLinkCut(*a, stamp_ns)) {
+      if (!batch.empty()) a->held.push_back(std::move(batch));
+      return;  // no acks, no map sharing: the agent flies on its own
     }
+    for (AgentBatch& b : a->held) Submit(std::move(b));
+    a->held.clear();
+    if (!batch.empty()) Submit(std::move(batch));
     if (!o_.threaded) backend_->ProcessAllQueued();
     a->acks.Add(backend_->TakeAcks(a->input.id).keyframes);
     if (o_.map_sharing && ref.valid()) {
       if (auto data = backend_->Neighbourhood(a->input.id, ref)) a->vo->ApplyServerData(std::move(*data));
     }
+  }
+
+  bool InLinkCut(const Agent& a, int64_t stamp_ns) const {
+    if (o_.link_cut_at_s < 0.0 || a.first_ns < 0) return false;
+    const double t = (stamp_ns - a.first_ns) * 1e-9;
+    return t >= o_.link_cut_at_s && t < o_.link_cut_at_s + o_.link_cut_s;
+  }
+
+  void Submit(AgentBatch batch) {
+    if (o_.on_batch) {
+      std::lock_guard<std::mutex> lock(batch_mutex_);
+      o_.on_batch(batch);
+    }
+    backend_->Submit(std::move(batch));
   }
 
   void RunAgentThread(Agent* a) {
@@ -198,7 +215,7 @@ class Session {
     mapping.join();
     a->vo->DrainMapping();
     a->packer->FlushNext();  // the end of the flight: whatever the send delay still holds
-    Exchange(a, a->last_send_ns + 1);
+    Exchange(a, a->last_send_ns + 1, /*last=*/true);
     {
       std::lock_guard<std::mutex> lock(done_mutex_);
       ++finished_;
@@ -247,6 +264,7 @@ std::string ReplayOptions::Validate() const {
   if (!(new_keyframe_delay_s >= 0.0)) return "keyframe delay must be >= 0";
   if (const std::string e = anchor_duplicates.Validate(); !e.empty()) return "anchor duplicates: " + e;
   if (!(progress_period_s > 0.0)) return "progress period must be > 0";
+  if (link_cut_at_s >= 0.0 && !(link_cut_s > 0.0)) return "a link cut needs a length > 0 s";
   return "";
 }
 

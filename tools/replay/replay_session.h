@@ -47,6 +47,12 @@ struct ReplayOptions {
   bool threaded = false;         ///< false: one thread, deterministic
   int64_t max_frames = -1;       ///< per agent (-1: all)
   bool final_global_ba = true;   ///< the end-of-run work (ServerBackend::ScheduleFinish)
+  /// A link outage (the fault harness's --cut-at/--cut-s without DDS): from this long after
+  /// an agent's first frame (data time; < 0: never) for link_cut_s, nothing goes to the
+  /// server and nothing comes back (no acks, no map sharing); what the agent packed meanwhile
+  /// arrives in one burst when the link returns, as the reliable writers deliver it.
+  double link_cut_at_s = -1.0;
+  double link_cut_s = 0.0;
   double progress_period_s = 2.0;
   /// Sees every batch just before it is submitted (a Recording, a test probe). Threaded
   /// replays call it from the agents' threads, one at a time.

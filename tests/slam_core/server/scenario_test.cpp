@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 
 #include "slam_core/eval/alignment.h"
 #include "slam_core/eval/metrics.h"
@@ -279,6 +280,54 @@ TEST(ServerScenario, SegmentAfterTrackingLossEndsInTheFusedMap) {
   EXPECT_EQ(ev.maps, 1u);
   EXPECT_EQ(ev.agents[0].server_keyframes, backend.Snapshot().AgentTrajectory(1).size()) << "every keyframe is in the final map";
   EXPECT_LE(ev.collaborative_ate_percent, 0.2);
+}
+
+TEST(ServerScenario, ALinkCutMidFlightArrivesAsOneBurstAndLosesNothing) {
+  // hall3's agent 0 (10 Hz, 45 s) loses its link from 8 s to 38 s: nothing goes out or comes back,
+  // so its unacknowledged keyframes wait in its buffer B (sized for the outage) and its VO
+  // flies on. When the link returns, 30 s of batches reach the server at once, and the
+  // back-end registers all of them before place recognition and loop closing see the first
+  // (ServerBackend::ProcessAllQueued's order, as a live server under a burst). Deterministic,
+  // unlike the live Chaos.ALinkCut* test, which adds DDS' reassembly and timing.
+  const auto sim = LoadSim("hall3");
+  ASSERT_NE(sim, nullptr);
+  replay::ReplayOptions o;
+  o.vo.bound.max_unacked_buffer = 250;
+  o.link_cut_at_s = 8.0;
+  o.link_cut_s = 30.0;
+  ServerBackend* server = nullptr;
+  int64_t first_ns = -1, during = 0, kfs = 0;
+  std::set<int64_t> registered_while_cut;  // the server's count as each batch of the cut arrives
+  o.on_batch = [&](const AgentBatch& b) {
+    if (first_ns < 0) first_ns = b.stamp_ns;
+    const double t = (b.stamp_ns - first_ns) * 1e-9;
+    kfs += static_cast<int64_t>(b.keyframes.size());
+    if (t >= 9.0 && t < 36.5) {  // inside the cut, whatever the offset of the first batch
+      ++during;
+      registered_while_cut.insert(server->Status().stats.agents[1].keyframes_registered);
+    }
+  };
+  ServerBackend backend(SimVocabulary(), o.BackendOptions());
+  server = &backend;
+  std::vector<ReplayAgentInput> in;
+  in.push_back({"cut", 1, std::make_unique<sim::SimFrameSource>(sim, 0, 0, 2, 450)});
+  const report::RunResult r = replay::RunReplay(std::move(in), o, &backend);
+  ASSERT_EQ(r.error, "");
+  EXPECT_GT(during, 50) << "the batches packed during the cut were delivered (after it)";
+  EXPECT_EQ(registered_while_cut.size(), 1u) << "the cut's batches reached the server as one burst";
+  const report::RunEvaluation ev = report::EvaluateRun(r);
+  PrintScores(r, ev);
+  EXPECT_EQ(ev.maps, 1u);
+  EXPECT_EQ(r.agents[0].segments, 1);
+  EXPECT_GT(kfs, 100);
+  // The outage's keyframes are in the map: at least one per 2 s of the cut.
+  int in_cut = 0;
+  for (const auto& k : r.agents[0].server_keyframes) {
+    const double t = (k.stamp_ns - first_ns) * 1e-9;
+    in_cut += t >= 9.0 && t < 37.0;
+  }
+  EXPECT_GE(in_cut, 14);
+  EXPECT_LE(ev.collaborative_ate_percent, 0.2) << "the burst must not tear the server's copy";
 }
 
 }  // namespace
