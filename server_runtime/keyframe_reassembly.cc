@@ -117,6 +117,7 @@ std::map<AgentId, int64_t> KeyframeReassembly::Release(Clock::time_point now, Ba
       const bool complete = Complete(agent, s, h.data);
       if (!complete && now - h.since < options_.max_keyframe_hold) break;  // keep the agent's order
       if (!complete) ++incomplete[agent];
+      h.data.points_incomplete = !complete;
       AgentBatch& b = out->For(agent, h.data.segment);
       if (h.reference_kf.valid()) b.reference_kf = h.reference_kf;
       b.keyframes.push_back(std::move(h.data));

@@ -35,6 +35,7 @@ std::string CommSummaryJson(const ServerCommStats& comm, const std::vector<rt::T
                                   {"keyframes_skipped_as_duplicates", counters.keyframes_duplicate},
                                   {"keyframes_received_as_anchors", counters.keyframes_anchor_only},
                                   {"keyframes_kept_on_track", counters.keyframes_kept_on_track},
+                                  {"keyframes_deferred_for_points", counters.keyframes_deferred},
                                   {"refinements_refused", counters.refinements_refused},
                                   {"status_msgs", l.status_msgs},
                                   {"rejected", l.rejected},

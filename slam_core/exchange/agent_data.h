@@ -48,6 +48,11 @@ struct KeyframeData {
   /// keeps it as a pose anchor on `parent` (its trajectory), never in the map. It would
   /// have dropped the features of such a keyframe anyway (Forster et al.).
   bool anchor_only = false;
+  /// Not on the wire: set by the server's reassembly when the keyframe left before every
+  /// point of its own agent it links had arrived (after an outage the reliable streams come
+  /// back one after the other, keyframes seconds before their points). Its links are then a
+  /// minority of its evidence, often points of an earlier pass only.
+  bool points_incomplete = false;
 };
 
 /// A map point as the agent sends it once, in full.

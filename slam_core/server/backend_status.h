@@ -23,6 +23,9 @@ struct AgentCounters {
   /// Keyframes whose links mostly disagreed, placed on the points their predecessor sees
   /// (an agent back at old points before the loop was closed); registration.cc RefinePose.
   int64_t keyframes_kept_on_track = 0;
+  /// Registered before their own points arrived (after an outage): mapped and queried for
+  /// place recognition once the points came (registration.h, RegisteredKeyframe::deferred).
+  int64_t keyframes_deferred = 0;
   /// Refinements against the map that pulled a keyframe further than its agent's VO drifts
   /// in a step, with neither its track nor a clear majority of its links for it: refused.
   int64_t refinements_refused = 0;

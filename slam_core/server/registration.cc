@@ -51,6 +51,15 @@ RegistrationReport AgentRegistration::Register(const AgentBatch& batch) {
   for (const MapPointData& mp : batch.map_points) RegisterPoint(mp, &report);
   for (const KeyframePoseUpdate& u : batch.keyframe_updates) ApplyKeyframeUpdate(u, &report);
   for (const MapPointPositionUpdate& u : batch.map_point_updates) ApplyPointUpdate(u, batch.segment, &report);
+  for (auto it = deferred_.begin(); it != deferred_.end();) {
+    Deferred& d = it->second;
+    if (2 * d.resolved >= d.pending || ++d.batches > kMaxDeferredBatches) {
+      report.completed.push_back(it->first);
+      it = deferred_.erase(it);
+    } else {
+      ++it;
+    }
+  }
   report.points_waiting = static_cast<int>(num_waiting_);
   return report;
 }
@@ -97,12 +106,14 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   info.parent_from_cam = data.parent_from_cam;
   info.segment_from_cam = data.segment_from_cam;
   smap->SetInfo(data.id, info);
+  int pending = 0;
   for (const auto& [idx, mp_id] : data.point_links) {
     const MapPointId resolved = smap->Resolve(mp_id);
     if (map.map_point(resolved)) {
       map.AddObservation(data.id, idx, resolved);
     } else if (mp_id.agent() == agent_) {
       AddPendingLink(mp_id, data.id, idx);
+      ++pending;
     }
   }
   int inliers = 0;
@@ -110,7 +121,18 @@ void AgentRegistration::RegisterKeyframe(const KeyframeData& data, RegistrationR
   const KeyframeId continuity = reg.placement == RegisteredKeyframe::Placement::kPredecessor ? data.predecessor
                                 : reg.placement == RegisteredKeyframe::Placement::kParent    ? data.parent
                                                                                               : KeyframeId();
-  reg.refined = RefinePose(smap, kf.get(), continuity, &inliers, &kept_on_track, &implausible);
+  if (data.points_incomplete && pending > 0) {
+    reg.deferred = true;
+    deferred_[data.id].pending = pending;
+    // Most of its own points are still on their way: the few links it has (after an
+    // outage, often only points of an earlier pass that the server holds elsewhere) would
+    // pull it off the agent's track, and every later keyframe hangs on it. Its relative
+    // pose places it; links that disagree with that are dropped (loop closing joins the
+    // places), and the late points join it when they arrive.
+    DropLinksAgainstPose(&map, *kf);
+  } else {
+    reg.refined = RefinePose(smap, kf.get(), continuity, &inliers, &kept_on_track, &implausible);
+  }
   report->kept_on_track += kept_on_track;
   report->implausible_refinements += implausible;
   if (reg.refined && reg.placement == RegisteredKeyframe::Placement::kPredecessor) {
@@ -157,6 +179,16 @@ void AgentRegistration::RegisterAnchor(const KeyframeData& data, double scale, S
   const SE3 world_from_cam = *world_from_via * ScaledPose(via_from_cam, scale);
   smap->AddAnchor(data.id, {base, base_kf->cam_from_world() * world_from_cam, data.stamp_ns, data.segment});
   ++report->anchors_registered;
+}
+
+void AgentRegistration::DropLinksAgainstPose(Map* map, const KeyFrame& kf) {
+  std::vector<MapPointId> refs;
+  const std::vector<opt::PointObservation> obs = LinkedPointObservations(*map, kf, &refs);
+  std::vector<bool> inlier(obs.size(), false);
+  opt::ClassifyObservations(kf.camera(), obs, kf.cam_from_world(), opt::kChi2Mono2Dof, &inlier);
+  for (size_t i = 0; i < refs.size(); ++i) {
+    if (!inlier[i]) map->EraseObservation(kf.id(), refs[i]);
+  }
 }
 
 bool AgentRegistration::RefinePose(ServerMap* smap, KeyFrame* kf, KeyframeId continuity, int* inliers,
@@ -285,7 +317,10 @@ void AgentRegistration::RegisterPoint(const MapPointData& data, RegistrationRepo
   map.AddMapPoint(mp);
   for (const auto& [kf_id, idx] : data.observations) map.AddObservation(kf_id, idx, data.id);
   if (const auto it = pending_links_.find(data.id); it != pending_links_.end()) {
-    for (const auto& [kf_id, idx] : it->second) map.AddObservation(kf_id, idx, data.id);
+    for (const auto& [kf_id, idx] : it->second) {
+      map.AddObservation(kf_id, idx, data.id);
+      if (const auto d = deferred_.find(kf_id); d != deferred_.end()) ++d->second.resolved;
+    }
     pending_links_.erase(it);
   }
   if (mp->num_observations() == 0) {

@@ -34,10 +34,16 @@ struct RegisteredKeyframe {
   MapId map;
   enum class Placement { kPredecessor, kParent, kSegmentPose, kFirstOfMap } placement;
   bool refined = false;
+  /// Registered before its own points arrived (KeyframeData::points_incomplete): server
+  /// mapping and place recognition wait until they have (RegistrationReport::completed).
+  bool deferred = false;
 };
 
 struct RegistrationReport {
   std::vector<RegisteredKeyframe> keyframes;  ///< newly in a map, in order
+  /// Deferred keyframes (of this or earlier batches) whose points have come since, or that
+  /// waited kMaxDeferredBatches: due for server mapping and place recognition now.
+  std::vector<KeyframeId> completed;
   std::vector<KeyframeId> acked_keyframes;    ///< processed (new or already known): acknowledge
   std::vector<MapPointId> acked_points;
   std::vector<MapId> new_maps;                ///< maps created for new segments
@@ -72,6 +78,8 @@ class AgentRegistration {
   /// `continuity`: the keyframe it was placed from (predecessor or parent; invalid if none).
   bool RefinePose(ServerMap* map, KeyFrame* kf, KeyframeId continuity, int* inliers, bool* kept_on_track,
                   bool* implausible);
+  /// A keyframe placed without refinement keeps only the links that agree with its pose.
+  static void DropLinksAgainstPose(Map* map, const KeyFrame& kf);
   void UpdateScale(const AgentHandler& handler, const KeyframeData& data, ServerMap* map, const KeyFrame& kf);
   void ApplyKeyframeUpdate(const KeyframePoseUpdate& u, RegistrationReport* report);
   void ApplyPointUpdate(const MapPointPositionUpdate& u, MapId segment, RegistrationReport* report);
@@ -89,6 +97,14 @@ class AgentRegistration {
   /// (links to points the agent culled before sending them never resolve).
   std::unordered_map<MapPointId, std::vector<std::pair<KeyframeId, int>>> pending_links_;
   std::deque<MapPointId> pending_order_;
+  /// Deferred keyframes: how many own points they waited for at registration, how many of
+  /// those came since, and for how many batches. Complete at half (links to points the
+  /// agent culled before sending them never resolve).
+  struct Deferred {
+    int pending = 0, resolved = 0, batches = 0;
+  };
+  static constexpr int kMaxDeferredBatches = 400;
+  std::map<KeyframeId, Deferred> deferred_;
 };
 
 /// t scaled by `scale` (rotation kept): a VO relative pose in map units.

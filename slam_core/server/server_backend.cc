@@ -159,11 +159,23 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
   std::vector<double> kf_ms;
   int skipped = 0, local_bas = 0;
   double fusion_ms = 0.0, local_ba_ms = 0.0;
+  // Keyframes registered before their points wait for them (RegisteredKeyframe::deferred);
+  // those whose points have come are mapped and queried now.
+  std::vector<KeyframeId> due;
+  int deferred = 0;
   for (const RegisteredKeyframe& r : report.keyframes) {
+    if (r.deferred) {
+      ++deferred;
+    } else {
+      due.push_back(r.id);
+    }
+  }
+  due.insert(due.end(), report.completed.begin(), report.completed.end());
+  for (const KeyframeId id : due) {
     const auto t1 = Clock::now();
-    SharedMapLock locked = LockMapOf(*stack_, r.id);
+    SharedMapLock locked = LockMapOf(*stack_, id);
     if (!locked.map) continue;
-    const auto kf = locked.map->map().keyframe(r.id);
+    const auto kf = locked.map->map().keyframe(id);
     if (!kf) continue;
     const ServerMappingReport m = mapper_.Process(locked.map.get(), kf);
     fusion_ms += m.fusion_ms;
@@ -172,7 +184,7 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     if (m.skipped) {
       ++skipped;
     } else {
-      for_place_recognition.push_back(r.id);
+      for_place_recognition.push_back(id);
     }
     kf_ms.push_back(per_kf_registration + std::chrono::duration<double, std::milli>(Clock::now() - t1).count());
   }
@@ -194,6 +206,7 @@ void ServerBackend::ProcessBatch(AgentRegistration* reg, const AgentBatch& batch
     c.keyframes_duplicate += skipped;
     c.keyframes_anchor_only += report.anchors_registered + report.anchors_dropped;
     c.keyframes_kept_on_track += report.kept_on_track;
+    c.keyframes_deferred += deferred;
     c.refinements_refused += report.implausible_refinements;
     c.points_registered += report.points_registered;
     c.updates_applied += report.keyframe_updates_applied + report.point_updates_applied;

@@ -202,6 +202,11 @@ ExplicitFlags AddOptions(CLI::App* app, Args* a) {
   app->add_option("--cut-s", a->replay.link_cut_s, "length of the --cut-at outage, data time [s]")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app->add_option("--cut-points-late", a->replay.link_cut_points_late_s,
+                  "with --cut-at: the burst's points arrive this long after their keyframes, which reach the server "
+                  "flagged as released without their points (as after a live outage) [s]")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app->add_flag("--no-final-ba", a->no_final_ba,
                 "skip the end-of-run work: the sweep of repeated passes and the global BA of every map");
   app->add_option("--load-map", a->load_map, "start from a saved map stack");

@@ -43,6 +43,8 @@ struct Agent {
   int64_t last_send_ns = -1;
   int64_t first_ns = -1;
   std::vector<AgentBatch> held;  // packed during a link cut, delivered when it ends
+  std::vector<AgentBatch> late;  // the burst's points, when they come after its keyframes
+  int64_t late_at_ns = 0;
   int64_t frames = 0, tracked = 0;
   Trajectory gt;
 };
@@ -179,7 +181,14 @@ class Session {
       if (!batch.empty()) a->held.push_back(std::move(batch));
       return;  // no acks, no map sharing: the agent flies on its own
     }
-    for (AgentBatch& b : a->held) Submit(std::move(b));
+    if (!a->late.empty() && (last || stamp_ns >= a->late_at_ns)) {
+      for (AgentBatch& b : a->late) Submit(std::move(b));
+      a->late.clear();
+    }
+    for (AgentBatch& b : a->held) {
+      if (o_.link_cut_points_late_s > 0.0 && !last) SplitOffPoints(&b, a, stamp_ns);
+      Submit(std::move(b));
+    }
     a->held.clear();
     if (!batch.empty()) Submit(std::move(batch));
     if (!o_.threaded) backend_->ProcessAllQueued();
@@ -187,6 +196,28 @@ class Session {
     if (o_.map_sharing && ref.valid()) {
       if (auto data = backend_->Neighbourhood(a->input.id, ref)) a->vo->ApplyServerData(std::move(*data));
     }
+  }
+
+  // The points of a burst's batch leave for later; its keyframes that link one of them are
+  // flagged as the live reassembly flags keyframes released without their points.
+  void SplitOffPoints(AgentBatch* b, Agent* a, int64_t stamp_ns) const {
+    AgentBatch points;
+    points.agent = b->agent;
+    points.segment = b->segment;
+    points.reference_kf = b->reference_kf;
+    points.stamp_ns = b->stamp_ns;
+    std::swap(points.map_points, b->map_points);
+    std::swap(points.map_point_updates, b->map_point_updates);
+    std::unordered_set<MapPointId> late_ids;
+    for (const AgentBatch& l : a->late) {
+      for (const MapPointData& mp : l.map_points) late_ids.insert(mp.id);
+    }
+    for (const MapPointData& mp : points.map_points) late_ids.insert(mp.id);
+    for (KeyframeData& kf : b->keyframes) {
+      for (const auto& link : kf.point_links) kf.points_incomplete |= late_ids.count(link.second) > 0;
+    }
+    if (!points.empty()) a->late.push_back(std::move(points));
+    a->late_at_ns = stamp_ns + static_cast<int64_t>(o_.link_cut_points_late_s * 1e9);
   }
 
   bool InLinkCut(const Agent& a, int64_t stamp_ns) const {
@@ -265,6 +296,7 @@ std::string ReplayOptions::Validate() const {
   if (const std::string e = anchor_duplicates.Validate(); !e.empty()) return "anchor duplicates: " + e;
   if (!(progress_period_s > 0.0)) return "progress period must be > 0";
   if (link_cut_at_s >= 0.0 && !(link_cut_s > 0.0)) return "a link cut needs a length > 0 s";
+  if (!(link_cut_points_late_s >= 0.0)) return "late points need a delay >= 0 s";
   return "";
 }
 

@@ -53,6 +53,11 @@ struct ReplayOptions {
   /// arrives in one burst when the link returns, as the reliable writers deliver it.
   double link_cut_at_s = -1.0;
   double link_cut_s = 0.0;
+  /// After the cut, the burst's points arrive this long after their keyframes (data time;
+  /// 0: together), and those keyframes reach the back-end flagged as ccm_server's reassembly
+  /// flags keyframes that left before their points (KeyframeData::points_incomplete): what
+  /// DDS delivered after a minute's outage in the live fault harness.
+  double link_cut_points_late_s = 0.0;
   double progress_period_s = 2.0;
   /// Sees every batch just before it is submitted (a Recording, a test probe). Threaded
   /// replays call it from the agents' threads, one at a time.

@@ -102,6 +102,59 @@ TEST(Registration, ServerReproducesTheAgentsKeyframeTrajectory) {
   EXPECT_GT(st.agents.at(1).updates_applied, 0) << "the agent's local-BA updates reach the server";
 }
 
+// After an outage the keyframes come before their points, flagged by the reassembly: the
+// back-end registers them (and acknowledges them) at once, but maps them and queries place
+// recognition only once their points came; a query without 3-D points cannot verify a match.
+TEST(Registration, KeyframesThatCameBeforeTheirPointsAreQueriedOnceThePointsCame) {
+  const testing::VoStream& s = Hall3Stream();
+  ServerBackend backend(SimVocabulary(), ServerOptions{});
+  const size_t half = s.batches.size() / 2;
+  for (size_t i = 0; i < half; ++i) {
+    ASSERT_EQ(backend.Submit(s.batches[i]), 0);
+    backend.ProcessAllQueued();
+  }
+  const int64_t queries_before = backend.Status().stats.place.queries;
+  std::vector<AgentBatch> late;
+  int flagged = 0;
+  for (size_t i = half; i < s.batches.size(); ++i) {
+    AgentBatch b = s.batches[i];
+    AgentBatch points;
+    points.agent = b.agent;
+    points.segment = b.segment;
+    points.stamp_ns = b.stamp_ns;
+    std::swap(points.map_points, b.map_points);
+    for (KeyframeData& k : b.keyframes) {
+      k.points_incomplete = !k.anchor_only;
+      flagged += k.points_incomplete;
+    }
+    late.push_back(std::move(points));
+    ASSERT_EQ(backend.Submit(b), 0);
+    backend.ProcessAllQueued();
+  }
+  ASSERT_GT(flagged, 10);
+  const BackendStats burst = backend.Status().stats;
+  EXPECT_GT(burst.agents.at(1).keyframes_deferred, flagged / 2) << "keyframes linking points not here yet wait";
+  const int64_t queried_early = burst.place.queries - queries_before;
+  EXPECT_LT(queried_early, flagged - burst.agents.at(1).keyframes_deferred + 1)
+      << "no deferred keyframe was queried before its points";
+  for (const AgentBatch& b : late) {
+    ASSERT_EQ(backend.Submit(b), 0);
+    backend.ProcessAllQueued();
+  }
+  const BackendStats after = backend.Status().stats;
+  // Mapped late, a keyframe next to a later one of the burst may become its anchor instead
+  // (near-duplicate): either way it was handled once its points came.
+  const int64_t queried = after.place.queries - burst.place.queries;
+  const int64_t anchored = after.agents.at(1).keyframes_duplicate - burst.agents.at(1).keyframes_duplicate;
+  std::printf("flagged %d, deferred %lld, queried before their points %lld, after: queried %lld, anchored %lld\n",
+              flagged, static_cast<long long>(burst.agents.at(1).keyframes_deferred),
+              static_cast<long long>(queried_early), static_cast<long long>(queried), static_cast<long long>(anchored));
+  EXPECT_GE(queried, 3);
+  EXPECT_GE(queried + anchored, burst.agents.at(1).keyframes_deferred * 9 / 10)
+      << "once their points came, the deferred keyframes were mapped and queried";
+  EXPECT_EQ(after.agents.at(1).rejected, 0);
+}
+
 TEST(Registration, AgentUpdatesStillApplyAfterTheRegistrationRefinement) {
   // The server refines each keyframe against the points it links when it registers it; the
   // agent's local BA keeps improving that keyframe and its points afterwards. With nothing
