@@ -44,6 +44,7 @@ struct Agent {
   int64_t first_ns = -1;
   std::vector<AgentBatch> held;  // packed during a link cut, delivered when it ends
   std::vector<AgentBatch> late;  // the burst's points, when they come after its keyframes
+  std::unordered_set<MapPointId> late_ids;  // the points in `late`
   int64_t late_at_ns = 0;
   int64_t frames = 0, tracked = 0;
   Trajectory gt;
@@ -184,6 +185,7 @@ class Session {
     if (!a->late.empty() && (last || stamp_ns >= a->late_at_ns)) {
       for (AgentBatch& b : a->late) Submit(std::move(b));
       a->late.clear();
+      a->late_ids.clear();
     }
     for (AgentBatch& b : a->held) {
       if (o_.link_cut_points_late_s > 0.0 && !last) SplitOffPoints(&b, a, stamp_ns);
@@ -208,13 +210,9 @@ class Session {
     points.stamp_ns = b->stamp_ns;
     std::swap(points.map_points, b->map_points);
     std::swap(points.map_point_updates, b->map_point_updates);
-    std::unordered_set<MapPointId> late_ids;
-    for (const AgentBatch& l : a->late) {
-      for (const MapPointData& mp : l.map_points) late_ids.insert(mp.id);
-    }
-    for (const MapPointData& mp : points.map_points) late_ids.insert(mp.id);
+    for (const MapPointData& mp : points.map_points) a->late_ids.insert(mp.id);
     for (KeyframeData& kf : b->keyframes) {
-      for (const auto& link : kf.point_links) kf.points_incomplete |= late_ids.count(link.second) > 0;
+      for (const auto& link : kf.point_links) kf.points_incomplete |= a->late_ids.count(link.second) > 0;
     }
     if (!points.empty()) a->late.push_back(std::move(points));
     a->late_at_ns = stamp_ns + static_cast<int64_t>(o_.link_cut_points_late_s * 1e9);
