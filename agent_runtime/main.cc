@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
   CLI::App app{"ccm_agent: collaborative monocular SLAM agent (CCM-SLAM on Fast DDS)"};
   const GivenOnCommandLine given = AddOptions(&app, &args);
   CLI11_PARSE(app, argc, argv);
-  rt::QuietCeresLogging(argv[0]);
+  rt::SetUpGlog(argv[0]);
   std::string error;
   if (!Resolve(given, &args, &error)) return Fail(error);
   std::signal(SIGINT, OnSignal);

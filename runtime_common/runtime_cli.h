@@ -76,12 +76,18 @@ bool ResolveSession(const Config& c, SessionOptions* session, std::string* error
   return true;
 }
 
-/// Ceres reports rejected trust-region steps (a point behind a camera) as glog warnings:
-/// expected during optimization, noise for an operator. Keep its errors, on stderr.
-inline void QuietCeresLogging(const char* argv0) {
+/// glog, which Ceres logs through, set up for a process that runs unattended:
+/// - Ceres reports rejected trust-region steps (a point behind a camera) as glog warnings:
+///   expected during optimization, noise for an operator. Keep its errors, on stderr.
+/// - A crash (SIGSEGV, SIGABRT from an uncaught exception or a failed check, SIGBUS, SIGFPE,
+///   SIGILL) prints the signal and a symbolized stack trace on stderr, then the process dies
+///   the default way (same exit status, core dump if enabled): a daemon that dies in the
+///   field or in a live test says where, not just "killed by a signal".
+inline void SetUpGlog(const char* argv0) {
   google::InitGoogleLogging(argv0);
   FLAGS_minloglevel = google::GLOG_ERROR;
   FLAGS_logtostderr = true;
+  google::InstallFailureSignalHandler();
 }
 
 }  // namespace ccm::rt

@@ -387,7 +387,7 @@ int main(int argc, char** argv) {
   CLI::App app{"ccm_server: collaborative SLAM server (CCM-SLAM on Fast DDS)"};
   const GivenOnCommandLine given = AddOptions(&app, &args);
   CLI11_PARSE(app, argc, argv);
-  rt::QuietCeresLogging(argv[0]);
+  rt::SetUpGlog(argv[0]);
   std::string error;
   if (!MergeConfigFile(given, &args, &error) || !Resolve(&args, &error)) return Fail(error);
   auto vocabulary = LoadVocabularyFile(args.config.vocabulary, &error);

@@ -203,7 +203,7 @@ int main(int argc, char** argv) {
   CLI::App app{"ccm_fleet: recorded agents as a team on the wire, against a real ccm_server"};
   const rt::DdsOptionsGiven given = AddOptions(&app, &a);
   CLI11_PARSE(app, argc, argv);
-  rt::QuietCeresLogging(argv[0]);
+  rt::SetUpGlog(argv[0]);
   std::string error;
   if (!Resolve(given, &a, &error)) return Fail(error);
   if (a.offline && !a.score_map.empty()) return Fail("--offline and --score exclude each other");
