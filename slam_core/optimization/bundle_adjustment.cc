@@ -10,6 +10,7 @@
 #include <ceres/solver.h>
 
 #include "slam_core/common/stopwatch.h"
+#include "slam_core/optimization/dense_schur_bundle.h"
 #include "slam_core/optimization/pose_manifold.h"
 #include "slam_core/optimization/reprojection_cost.h"
 #include "slam_core/optimization/reprojection_cost_analytic.h"
@@ -156,8 +157,8 @@ class AbortCallback final : public ceres::IterationCallback {
   const std::atomic<bool>* flag_;
 };
 
-// One Levenberg-Marquardt pass over the active observations.
-ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::vector<bool>& active,
+// One Levenberg-Marquardt pass over the active observations, on Ceres.
+internal::BundlePassResult RunCeresPass(const BundleProblem& problem, const std::vector<bool>& active,
                                      bool robust, int max_iterations,
                                      const BundleAdjusterOptions& options, BundleVariables* v) {
   std::unique_ptr<ceres::Manifold> manifold(NewSe3Manifold());
@@ -220,7 +221,36 @@ ceres::Solver::Summary RunBundlePass(const BundleProblem& problem, const std::ve
   if (options.abort) so.callbacks.push_back(&abort);
   ceres::Solver::Summary summary;
   if (cp.NumResidualBlocks() > 0) ceres::Solve(so, &cp, &summary);
-  return summary;
+  internal::BundlePassResult out;
+  out.usable = summary.IsSolutionUsable();
+  out.initial_cost = summary.initial_cost;
+  out.final_cost = summary.final_cost;
+  out.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  out.unsuccessful_steps = summary.num_unsuccessful_steps;
+  out.message = summary.BriefReport();
+  return out;
+}
+
+// kAuto with free XYZ points only and a window of at most kDenseSchurMaxFreePoses free
+// poses (every local BA): our own dense-Schur LM (dense_schur_bundle.h), else Ceres.
+internal::BundlePassResult RunBundlePass(const BundleProblem& problem, const std::vector<bool>& active, bool robust,
+                                         int max_iterations, const BundleAdjusterOptions& options,
+                                         BundleVariables* v) {
+  bool own = options.linear_solver == BaLinearSolver::kAuto;
+  for (size_t i = 0; own && i < problem.observations.size(); ++i) {
+    own = !active[i] || v->anchor[problem.observations[i].point_index] < 0;
+  }
+  own = own && internal::CountFreePoses(problem, active, v->pose_fixed) <= kDenseSchurMaxFreePoses;
+  if (!own) return RunCeresPass(problem, active, robust, max_iterations, options, v);
+  internal::BundlePassOptions po;
+  po.huber_delta = robust ? options.huber_delta : 0.0;
+  po.max_iterations = max_iterations;
+  po.function_tolerance = options.function_tolerance;
+  po.initial_trust_region_radius = options.initial_trust_region_radius;
+  po.abort = options.abort;
+  internal::BundlePassVariables vars{&v->cam_from_world, &v->points_w, &v->pose_fixed, v->scale_gauge_pose,
+                                     v->scale_gauge_axis};
+  return internal::RunDenseSchurPass(problem, active, po, vars);
 }
 
 // Marks observations whose chi2 (with the working variables) is within the threshold.
@@ -306,15 +336,15 @@ OptimizationSummary BundleAdjust(BundleProblem* problem, const BundleAdjusterOpt
   bool ok = true;
   bool first_pass = true;
   auto run = [&](bool robust, int iterations) {
-    const ceres::Solver::Summary s = RunBundlePass(*problem, active, robust, iterations, options, &v);
+    const internal::BundlePassResult s = RunBundlePass(*problem, active, robust, iterations, options, &v);
     UpdateAnchoredPoints(&v);
-    ok = ok && s.IsSolutionUsable();
+    ok = ok && s.usable;
     if (first_pass) out.initial_cost = s.initial_cost;
     first_pass = false;
     out.final_cost = s.final_cost;
-    out.iterations += std::max(0, static_cast<int>(s.iterations.size()) - 1);
-    out.rejected_steps += s.num_unsuccessful_steps;
-    out.message = s.BriefReport();
+    out.iterations += s.iterations;
+    out.rejected_steps += s.unsuccessful_steps;
+    out.message = s.message;
   };
   if (options.robust_iterations > 0) run(true, options.robust_iterations);
   if (ok && options.refine_iterations > 0) {

@@ -1,7 +1,8 @@
-// Reprojection-error optimizers on Ceres: pose-only (tracking), local BA (keyframe window
-// with a fixed periphery) and global BA (whole map). All are synchronous, use no threads
-// except the num_threads Ceres workers the caller allows, print nothing, and update their
-// input in place. Any ccm::CameraModel works (see reprojection_cost.h).
+// Reprojection-error optimizers: pose-only (tracking), local BA (keyframe window with a
+// fixed periphery) and global BA (whole map), on Ceres or, for the small problems solved
+// per frame or keyframe, on Levenberg-Marquardt loops of our own with the same minimum. All
+// are synchronous, use no threads except the num_threads Ceres workers the caller allows,
+// print nothing, and update their input in place. Any ccm::CameraModel works (see reprojection_cost.h).
 //
 //   opt::BundleProblem problem = ...;               // copied out of the map by the caller
 //   opt::OptimizationSummary s = opt::LocalBundleAdjustment(&problem, {});
@@ -50,8 +51,11 @@ OptimizationSummary OptimizePose(const CameraModel& camera,
 int ClassifyObservations(const CameraModel& camera, const std::vector<PointObservation>& observations,
                          const SE3& cam_from_world, double chi2_threshold, std::vector<bool>* inlier);
 
-/// kAuto: DENSE_SCHUR up to kDenseSchurMaxFreePoses free poses (local BA windows), else
-/// SPARSE_SCHUR (SuiteSparse when Ceres has it, else Eigen's sparse Cholesky).
+/// kAuto: up to kDenseSchurMaxFreePoses free poses (local BA windows) our own dense-Schur
+/// Levenberg-Marquardt (dense_schur_bundle.h: the same minimum as Ceres' DENSE_SCHUR, without
+/// a ceres::Problem; Ceres' DENSE_SCHUR when inverse-depth points take part), else Ceres'
+/// SPARSE_SCHUR (SuiteSparse when Ceres has it, else Eigen's sparse Cholesky). The others
+/// always use Ceres with that linear solver.
 enum class BaLinearSolver { kAuto, kSparseSchur, kIterativeSchur, kDenseSchur };
 inline constexpr int kDenseSchurMaxFreePoses = 40;
 /// "auto", "sparse", "iterative", "dense" (benchmarks' and configs' spelling).

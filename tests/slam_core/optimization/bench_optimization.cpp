@@ -103,10 +103,11 @@ void BenchLocalBa(const testing::Scene& scene, BaLinearSolver solver, const char
     s = LocalBundleAdjustment(&p, o);
     total += s.solve_time_s;
   }
-  char size[96], note[128];
+  char size[96], note[160];
   std::snprintf(size, sizeof(size), "20+%d fixed KF, %zu pts, %zu obs", fixed, window.points.size(), window.observations.size());
   const double cpu = CpuSeconds() - cpu0;
-  std::snprintf(note, sizeof(note), "%s, 1 thr, 5+10 it, %d inliers, mean of %d", name, s.num_inliers, runs);
+  std::snprintf(note, sizeof(note), "%s, 1 thr, 5+10 it max, %d run, cost %.6g, %d inliers, mean of %d", name,
+                s.iterations, s.final_cost, s.num_inliers, runs);
   PrintRow("local BA", size, 1000.0 * total / runs, 1000.0 * cpu / runs, "ms", note);
 }
 
@@ -194,6 +195,7 @@ int main(int argc, char** argv) {
   if (argc > 2 && std::string(argv[2]) == "--iterative") {
     BenchGlobalBa(scene, threads, BaLinearSolver::kIterativeSchur, "ITERATIVE_SCHUR");
   }
+  BenchLocalBa(scene, BaLinearSolver::kAuto, "own dense Schur LM");
   BenchLocalBa(scene, BaLinearSolver::kDenseSchur, "DENSE_SCHUR");
   BenchLocalBa(scene, BaLinearSolver::kSparseSchur, "SPARSE_SCHUR");
   BenchPoseOnly(scene);

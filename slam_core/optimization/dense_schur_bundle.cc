@@ -1,0 +1,341 @@
+#include "slam_core/optimization/dense_schur_bundle.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+
+namespace ccm::opt::internal {
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat63 = Eigen::Matrix<double, 6, 3>;
+
+// Ceres' defaults for a trust-region LM solve (the ones BundleAdjust does not set).
+constexpr double kGradientTolerance = 1e-10, kParameterTolerance = 1e-8, kMinRelativeDecrease = 1e-3;
+constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32, kMaxMu = 1e32;  // mu: 1 / trust-region radius
+
+// Which poses and points are unknowns, and each free point's observations.
+struct Layout {
+  std::vector<int> obs;         // active observation indices into problem.observations
+  std::vector<int> free_pose;   // problem pose -> unknown index, -1 if fixed or unobserved
+  std::vector<int> free_point;  // problem point -> unknown index, -1 if fixed or unobserved
+  int num_free_poses = 0, num_free_points = 0;
+  std::vector<int> point_begin, point_obs;  // CSR: positions in `obs` of each free point's observations
+};
+
+Layout MakeLayout(const BundleProblem& problem, const std::vector<bool>& active, const std::vector<bool>& pose_fixed) {
+  Layout l;
+  l.free_pose.assign(problem.poses.size(), -1);
+  l.free_point.assign(problem.points.size(), -1);
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    if (!active[i]) continue;
+    const Observation& o = problem.observations[i];
+    l.obs.push_back(static_cast<int>(i));
+    if (!pose_fixed[o.pose_index] && l.free_pose[o.pose_index] < 0) l.free_pose[o.pose_index] = l.num_free_poses++;
+    if (!problem.points[o.point_index].fixed && l.free_point[o.point_index] < 0) {
+      l.free_point[o.point_index] = l.num_free_points++;
+    }
+  }
+  std::vector<int> count(l.num_free_points + 1, 0);
+  for (const int i : l.obs) {
+    const int x = l.free_point[problem.observations[i].point_index];
+    if (x >= 0) ++count[x + 1];
+  }
+  for (int x = 0; x < l.num_free_points; ++x) count[x + 1] += count[x];
+  l.point_begin = count;
+  l.point_obs.resize(count.back());
+  for (size_t k = 0; k < l.obs.size(); ++k) {
+    const int x = l.free_point[problem.observations[l.obs[k]].point_index];
+    if (x >= 0) l.point_obs[count[x]++] = static_cast<int>(k);
+  }
+  return l;
+}
+
+// Gauss-Newton blocks in the tangent: pose (left rotation increment, then translation) and
+// point; W per observation (pose-point coupling, only where both are free).
+struct Linearization {
+  double cost = 0.0;
+  std::vector<Mat6> U;
+  std::vector<Vec6> gu;
+  std::vector<Eigen::Matrix3d> V;
+  std::vector<Eigen::Vector3d> gv;
+  std::vector<Mat63> W;
+};
+
+struct State {
+  std::vector<Se3Block> poses;
+  std::vector<Eigen::Vector3d> points;
+};
+
+// Cost (Ceres' convention, 1/2 sum rho) and, if `lin` is set, its blocks. False when an
+// observation cannot be evaluated (a point behind a pinhole camera).
+bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOptions& options,
+               const BundlePassVariables& v, const State& x, Linearization* lin) {
+  std::vector<Eigen::Matrix3d> R(problem.poses.size());
+  std::vector<bool> have_r(problem.poses.size(), false);
+  if (lin) {
+    lin->U.assign(l.num_free_poses, Mat6::Zero());
+    lin->gu.assign(l.num_free_poses, Vec6::Zero());
+    lin->V.assign(l.num_free_points, Eigen::Matrix3d::Zero());
+    lin->gv.assign(l.num_free_points, Eigen::Vector3d::Zero());
+    lin->W.resize(l.obs.size());
+  }
+  const double huber = options.huber_delta, d2 = huber * huber;
+  double total = 0.0;
+  Eigen::Vector2d uv;
+  Eigen::Matrix<double, 2, 3> J;
+  Eigen::Matrix<double, 2, 6> Jp;
+  for (size_t k = 0; k < l.obs.size(); ++k) {
+    const Observation& o = problem.observations[l.obs[k]];
+    const Se3Block& b = x.poses[o.pose_index];
+    if (!have_r[o.pose_index]) {
+      R[o.pose_index] = Eigen::Quaterniond(b[3], b[0], b[1], b[2]).toRotationMatrix();
+      have_r[o.pose_index] = true;
+    }
+    const Eigen::Vector3d rotated = R[o.pose_index] * x.points[o.point_index];
+    const CameraModel& camera = *problem.cameras[problem.poses[o.pose_index].camera_index];
+    if (!camera.ProjectForCost(rotated + Eigen::Vector3d(b[4], b[5], b[6]), &uv, lin ? &J : nullptr)) return false;
+    const double inv_sigma = 1.0 / o.sigma_px;
+    const Eigen::Vector2d r = (uv - o.uv_px) * inv_sigma;
+    const double s = r.squaredNorm();
+    double w = 1.0;
+    if (huber > 0.0 && s > d2) {
+      const double root = std::sqrt(s);
+      total += 2.0 * huber * root - d2;
+      w = huber / root;
+    } else {
+      total += s;
+    }
+    if (!lin) continue;
+    J *= inv_sigma;
+    const int p = l.free_pose[o.pose_index], m = l.free_point[o.point_index];
+    if (p >= 0) {
+      // d(p_cam)/d(phi) = -[R X]x for R' = exp(phi) R; d(p_cam)/d(t) = I.
+      Jp.leftCols<3>() << J(0, 2) * rotated.y() - J(0, 1) * rotated.z(), J(0, 0) * rotated.z() - J(0, 2) * rotated.x(),
+          J(0, 1) * rotated.x() - J(0, 0) * rotated.y(), J(1, 2) * rotated.y() - J(1, 1) * rotated.z(),
+          J(1, 0) * rotated.z() - J(1, 2) * rotated.x(), J(1, 1) * rotated.x() - J(1, 0) * rotated.y();
+      Jp.rightCols<3>() = J;
+      if (o.pose_index == v.scale_gauge_pose) Jp.col(3 + v.scale_gauge_axis).setZero();
+      lin->U[p].noalias() += w * Jp.transpose() * Jp;
+      lin->gu[p].noalias() += w * Jp.transpose() * r;
+    }
+    if (m >= 0) {
+      const Eigen::Matrix<double, 2, 3> Jx = J * R[o.pose_index];
+      lin->V[m].noalias() += w * Jx.transpose() * Jx;
+      lin->gv[m].noalias() += w * Jx.transpose() * r;
+      if (p >= 0) lin->W[k].noalias() = w * Jp.transpose() * Jx;
+    }
+  }
+  if (lin) lin->cost = 0.5 * total;
+  return std::isfinite(total);
+}
+
+template <typename M>
+M Damped(const M& h, double mu) {
+  M a = h;
+  a.diagonal() += mu * h.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+  return a;
+}
+
+// Solves the damped system by eliminating the points (Schur complement on the poses) and
+// back-substituting them. Returns false if the reduced system cannot be solved.
+// `model_decrease`: the linear model's predicted cost decrease for the step.
+bool SolveStep(const BundleProblem& problem, const Layout& l, const BundlePassVariables& v, const Linearization& lin,
+               double mu, std::vector<Vec6>* dpose, std::vector<Eigen::Vector3d>* dpoint, double* model_decrease) {
+  const int n = l.num_free_poses;
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  Eigen::VectorXd b(6 * n);
+  double decrease = 0.0;  // -g.d + d' D d, halved at the end (exact solve of (H + D) d = -g)
+  for (int p = 0; p < n; ++p) {
+    S.block<6, 6>(6 * p, 6 * p) = Damped(lin.U[p], mu);
+    b.segment<6>(6 * p) = -lin.gu[p];
+  }
+  std::vector<Eigen::Matrix3d> v_inv(l.num_free_points);
+  std::vector<Mat63> wv(l.obs.size());
+  for (int m = 0; m < l.num_free_points; ++m) {
+    const Eigen::Matrix3d vd = Damped(lin.V[m], mu);
+    bool invertible = false;
+    double det = 0.0;
+    vd.computeInverseAndDetWithCheck(v_inv[m], det, invertible);
+    if (!invertible || !v_inv[m].allFinite()) return false;
+    for (int a = l.point_begin[m]; a < l.point_begin[m + 1]; ++a) {
+      const int ka = l.point_obs[a];
+      const int pa = l.free_pose[problem.observations[l.obs[ka]].pose_index];
+      if (pa < 0) continue;
+      wv[ka].noalias() = lin.W[ka] * v_inv[m];
+      b.segment<6>(6 * pa).noalias() += wv[ka] * lin.gv[m];
+      for (int c = a; c < l.point_begin[m + 1]; ++c) {
+        const int kc = l.point_obs[c];
+        const int pc = l.free_pose[problem.observations[l.obs[kc]].pose_index];
+        if (pc < 0) continue;
+        const Mat6 block = wv[ka] * lin.W[kc].transpose();
+        S.block<6, 6>(6 * pa, 6 * pc) -= block;
+        if (c != a) S.block<6, 6>(6 * pc, 6 * pa) -= block.transpose();
+      }
+    }
+  }
+  if (v.scale_gauge_pose >= 0 && l.free_pose[v.scale_gauge_pose] >= 0) {
+    // The held translation component: decoupled by its zero Jacobian column; its step is 0.
+    const int row = 6 * l.free_pose[v.scale_gauge_pose] + 3 + v.scale_gauge_axis;
+    S.row(row).setZero();
+    S.col(row).setZero();
+    S(row, row) = 1.0;
+    b(row) = 0.0;
+  }
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(6 * n);
+  if (n > 0) {
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+    if (ldlt.info() != Eigen::Success) return false;
+    d = ldlt.solve(b);
+    if (!d.allFinite()) return false;
+  }
+  dpose->resize(n);
+  for (int p = 0; p < n; ++p) {
+    (*dpose)[p] = d.segment<6>(6 * p);
+    const Vec6 damp = mu * lin.U[p].diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    decrease += -lin.gu[p].dot((*dpose)[p]) + (*dpose)[p].dot(damp.cwiseProduct((*dpose)[p]));
+  }
+  if (v.scale_gauge_pose >= 0 && l.free_pose[v.scale_gauge_pose] >= 0) {
+    (*dpose)[l.free_pose[v.scale_gauge_pose]][3 + v.scale_gauge_axis] = 0.0;
+  }
+  dpoint->resize(l.num_free_points);
+  for (int m = 0; m < l.num_free_points; ++m) {
+    Eigen::Vector3d rhs = -lin.gv[m];
+    for (int a = l.point_begin[m]; a < l.point_begin[m + 1]; ++a) {
+      const int ka = l.point_obs[a];
+      const int pa = l.free_pose[problem.observations[l.obs[ka]].pose_index];
+      if (pa >= 0) rhs.noalias() -= lin.W[ka].transpose() * (*dpose)[pa];
+    }
+    const Eigen::Vector3d dx = v_inv[m] * rhs;
+    if (!dx.allFinite()) return false;
+    (*dpoint)[m] = dx;
+    const Eigen::Vector3d damp = mu * lin.V[m].diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    decrease += -lin.gv[m].dot(dx) + dx.dot(damp.cwiseProduct(dx));
+  }
+  *model_decrease = 0.5 * decrease;
+  return true;
+}
+
+State Plus(const BundleProblem& problem, const Layout& l, const State& x, const std::vector<Vec6>& dpose,
+           const std::vector<Eigen::Vector3d>& dpoint) {
+  State out = x;
+  for (size_t i = 0; i < problem.poses.size(); ++i) {
+    const int p = l.free_pose[i];
+    if (p < 0) continue;
+    const Eigen::Vector3d phi = dpose[p].head<3>();
+    const double angle = phi.norm();
+    const Eigen::Quaterniond dq =
+        angle > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, phi / angle))
+                      : Eigen::Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
+    const Se3Block& b = x.poses[i];
+    const Eigen::Quaterniond q = (dq * Eigen::Quaterniond(b[3], b[0], b[1], b[2])).normalized();
+    out.poses[i] = {q.x(), q.y(), q.z(), q.w(), b[4] + dpose[p][3], b[5] + dpose[p][4], b[6] + dpose[p][5]};
+  }
+  for (size_t i = 0; i < problem.points.size(); ++i) {
+    if (l.free_point[i] >= 0) out.points[i] += dpoint[l.free_point[i]];
+  }
+  return out;
+}
+
+double MaxGradient(const Linearization& lin) {
+  double g = 0.0;
+  for (const Vec6& x : lin.gu) g = std::max(g, x.lpNorm<Eigen::Infinity>());
+  for (const Eigen::Vector3d& x : lin.gv) g = std::max(g, x.lpNorm<Eigen::Infinity>());
+  return g;
+}
+
+double StepAndStateNorms(const Layout& l, const State& x, const std::vector<Vec6>& dpose,
+                         const std::vector<Eigen::Vector3d>& dpoint, double* step_norm) {
+  double s = 0.0, n = 0.0;
+  for (const Vec6& d : dpose) s += d.squaredNorm();
+  for (const Eigen::Vector3d& d : dpoint) s += d.squaredNorm();
+  for (size_t i = 0; i < x.poses.size(); ++i) {
+    if (l.free_pose[i] < 0) continue;
+    for (const double c : x.poses[i]) n += c * c;
+  }
+  for (size_t i = 0; i < x.points.size(); ++i) {
+    if (l.free_point[i] >= 0) n += x.points[i].squaredNorm();
+  }
+  *step_norm = std::sqrt(s);
+  return std::sqrt(n);
+}
+
+}  // namespace
+
+int CountFreePoses(const BundleProblem& problem, const std::vector<bool>& active, const std::vector<bool>& pose_fixed) {
+  return MakeLayout(problem, active, pose_fixed).num_free_poses;
+}
+
+BundlePassResult RunDenseSchurPass(const BundleProblem& problem, const std::vector<bool>& active,
+                                   const BundlePassOptions& options, const BundlePassVariables& v) {
+  BundlePassResult out;
+  const Layout l = MakeLayout(problem, active, *v.pose_fixed);
+  State x{*v.cam_from_world, *v.points_w};
+  Linearization lin;
+  if (!Linearize(problem, l, options, v, x, &lin)) {
+    out.message = "bundle pass: an observation cannot be evaluated at the initial point";
+    return out;
+  }
+  out.usable = true;
+  out.initial_cost = lin.cost;
+  double mu = 1.0 / options.initial_trust_region_radius, nu = 2.0;
+  out.message = "no convergence within " + std::to_string(options.max_iterations) + " iterations";
+  std::vector<Vec6> dpose;
+  std::vector<Eigen::Vector3d> dpoint;
+  Linearization next;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    if (options.abort && options.abort->load()) {
+      out.message = "aborted";
+      break;
+    }
+    if (MaxGradient(lin) <= kGradientTolerance) {
+      out.message = "gradient tolerance reached";
+      break;
+    }
+    ++out.iterations;
+    double model_decrease = 0.0;
+    bool step_ok = SolveStep(problem, l, v, lin, mu, &dpose, &dpoint, &model_decrease);
+    if (step_ok) {
+      double step_norm = 0.0;
+      const double x_norm = StepAndStateNorms(l, x, dpose, dpoint, &step_norm);
+      if (step_norm <= kParameterTolerance * (x_norm + kParameterTolerance)) {
+        out.message = "parameter tolerance reached";
+        break;
+      }
+    }
+    State candidate;
+    if (step_ok) {
+      candidate = Plus(problem, l, x, dpose, dpoint);
+      step_ok = Linearize(problem, l, options, v, candidate, &next);
+    }
+    const double rho = step_ok && model_decrease > 0.0 ? (lin.cost - next.cost) / model_decrease : -1.0;
+    if (rho < kMinRelativeDecrease) {  // a worse step, a failed solve or a point behind a camera: shrink
+      ++out.unsuccessful_steps;
+      mu *= nu;
+      nu *= 2.0;
+      if (mu > kMaxMu) {
+        out.message = "trust region too small";
+        break;
+      }
+      continue;
+    }
+    mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+    nu = 2.0;
+    const double decrease = lin.cost - next.cost;
+    x = std::move(candidate);
+    std::swap(lin, next);
+    if (decrease <= options.function_tolerance * (lin.cost + decrease)) {
+      out.message = "function tolerance reached";
+      break;
+    }
+  }
+  out.final_cost = lin.cost;
+  *v.cam_from_world = std::move(x.poses);
+  *v.points_w = std::move(x.points);
+  return out;
+}
+
+}  // namespace ccm::opt::internal
