@@ -6,6 +6,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "slam_core/optimization/lm_building_blocks.h"
+
 namespace ccm::opt::internal {
 namespace {
 
@@ -13,9 +15,7 @@ using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat63 = Eigen::Matrix<double, 6, 3>;
 
-// Ceres' defaults for a trust-region LM solve (the ones BundleAdjust does not set).
-constexpr double kGradientTolerance = 1e-10, kParameterTolerance = 1e-8, kMinRelativeDecrease = 1e-3;
-constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32, kMaxMu = 1e32;  // mu: 1 / trust-region radius
+constexpr double kMaxMu = 1e32;  // 1 / Ceres' smallest trust-region radius
 
 // Which poses and points are unknowns, and each free point's observations.
 struct Layout {
@@ -83,7 +83,6 @@ bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOp
     lin->gv.assign(l.num_free_points, Eigen::Vector3d::Zero());
     lin->W.resize(l.obs.size());
   }
-  const double huber = options.huber_delta, d2 = huber * huber;
   double total = 0.0;
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J;
@@ -100,24 +99,12 @@ bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOp
     if (!camera.ProjectForCost(rotated + Eigen::Vector3d(b[4], b[5], b[6]), &uv, lin ? &J : nullptr)) return false;
     const double inv_sigma = 1.0 / o.sigma_px;
     const Eigen::Vector2d r = (uv - o.uv_px) * inv_sigma;
-    const double s = r.squaredNorm();
-    double w = 1.0;
-    if (huber > 0.0 && s > d2) {
-      const double root = std::sqrt(s);
-      total += 2.0 * huber * root - d2;
-      w = huber / root;
-    } else {
-      total += s;
-    }
+    const double w = AddHuber(r.squaredNorm(), options.huber_delta, &total);
     if (!lin) continue;
     J *= inv_sigma;
     const int p = l.free_pose[o.pose_index], m = l.free_point[o.point_index];
     if (p >= 0) {
-      // d(p_cam)/d(phi) = -[R X]x for R' = exp(phi) R; d(p_cam)/d(t) = I.
-      Jp.leftCols<3>() << J(0, 2) * rotated.y() - J(0, 1) * rotated.z(), J(0, 0) * rotated.z() - J(0, 2) * rotated.x(),
-          J(0, 1) * rotated.x() - J(0, 0) * rotated.y(), J(1, 2) * rotated.y() - J(1, 1) * rotated.z(),
-          J(1, 0) * rotated.z() - J(1, 2) * rotated.x(), J(1, 1) * rotated.x() - J(1, 0) * rotated.y();
-      Jp.rightCols<3>() = J;
+      Jp = PoseTangentJacobian(J, rotated);
       if (o.pose_index == v.scale_gauge_pose) Jp.col(3 + v.scale_gauge_axis).setZero();
       lin->U[p].noalias() += w * Jp.transpose() * Jp;
       lin->gu[p].noalias() += w * Jp.transpose() * r;
@@ -136,7 +123,7 @@ bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOp
 template <typename M>
 M Damped(const M& h, double mu) {
   M a = h;
-  a.diagonal() += mu * h.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+  a.diagonal() += DampingOf(h, mu);
   return a;
 }
 
@@ -195,7 +182,7 @@ bool SolveStep(const BundleProblem& problem, const Layout& l, const BundlePassVa
   dpose->resize(n);
   for (int p = 0; p < n; ++p) {
     (*dpose)[p] = d.segment<6>(6 * p);
-    const Vec6 damp = mu * lin.U[p].diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    const Vec6 damp = DampingOf(lin.U[p], mu);
     decrease += -lin.gu[p].dot((*dpose)[p]) + (*dpose)[p].dot(damp.cwiseProduct((*dpose)[p]));
   }
   if (v.scale_gauge_pose >= 0 && l.free_pose[v.scale_gauge_pose] >= 0) {
@@ -212,7 +199,7 @@ bool SolveStep(const BundleProblem& problem, const Layout& l, const BundlePassVa
     const Eigen::Vector3d dx = v_inv[m] * rhs;
     if (!dx.allFinite()) return false;
     (*dpoint)[m] = dx;
-    const Eigen::Vector3d damp = mu * lin.V[m].diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    const Eigen::Vector3d damp = DampingOf(lin.V[m], mu);
     decrease += -lin.gv[m].dot(dx) + dx.dot(damp.cwiseProduct(dx));
   }
   *model_decrease = 0.5 * decrease;
@@ -225,13 +212,8 @@ State Plus(const BundleProblem& problem, const Layout& l, const State& x, const 
   for (size_t i = 0; i < problem.poses.size(); ++i) {
     const int p = l.free_pose[i];
     if (p < 0) continue;
-    const Eigen::Vector3d phi = dpose[p].head<3>();
-    const double angle = phi.norm();
-    const Eigen::Quaterniond dq =
-        angle > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, phi / angle))
-                      : Eigen::Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
     const Se3Block& b = x.poses[i];
-    const Eigen::Quaterniond q = (dq * Eigen::Quaterniond(b[3], b[0], b[1], b[2])).normalized();
+    const Eigen::Quaterniond q = RotateLeft(Eigen::Quaterniond(b[3], b[0], b[1], b[2]), dpose[p].head<3>());
     out.poses[i] = {q.x(), q.y(), q.z(), q.w(), b[4] + dpose[p][3], b[5] + dpose[p][4], b[6] + dpose[p][5]};
   }
   for (size_t i = 0; i < problem.points.size(); ++i) {
@@ -312,18 +294,14 @@ BundlePassResult RunDenseSchurPass(const BundleProblem& problem, const std::vect
       step_ok = Linearize(problem, l, options, v, candidate, &next);
     }
     const double rho = step_ok && model_decrease > 0.0 ? (lin.cost - next.cost) / model_decrease : -1.0;
-    if (rho < kMinRelativeDecrease) {  // a worse step, a failed solve or a point behind a camera: shrink
+    if (!UpdateDamping(rho, &mu, &nu)) {  // a worse step, a failed solve or a point behind a camera
       ++out.unsuccessful_steps;
-      mu *= nu;
-      nu *= 2.0;
       if (mu > kMaxMu) {
         out.message = "trust region too small";
         break;
       }
       continue;
     }
-    mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-    nu = 2.0;
     const double decrease = lin.cost - next.cost;
     x = std::move(candidate);
     std::swap(lin, next);

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "slam_core/optimization/bundle_adjustment.h"
+#include "slam_core/optimization/lm_building_blocks.h"
 #include "slam_core/optimization/pose_manifold.h"
 
 namespace ccm::opt {
@@ -41,34 +42,20 @@ bool Linearize(const CameraModel& camera, const std::vector<PointObservation>& o
                double huber, const PoseState& x, double* cost, Eigen::Matrix<double, 6, 6>* h,
                Eigen::Matrix<double, 6, 1>* g) {
   const Eigen::Matrix3d R = x.q.toRotationMatrix();
-  const double d2 = huber * huber;
   double total = 0.0;
   if (h) h->setZero(), g->setZero();
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J;
-  Eigen::Matrix<double, 2, 6> Jx;
   for (size_t i = 0; i < obs.size(); ++i) {
     if (!active[i]) continue;
     const Eigen::Vector3d rotated = R * obs[i].point_w;
     if (!camera.ProjectForCost(rotated + x.t, &uv, h ? &J : nullptr)) return false;
     const double inv_sigma = 1.0 / obs[i].sigma_px;
     const Eigen::Vector2d r = (uv - obs[i].uv_px) * inv_sigma;
-    const double s = r.squaredNorm();
-    double w = 1.0;
-    if (huber > 0.0 && s > d2) {
-      const double root = std::sqrt(s);
-      total += 2.0 * huber * root - d2;
-      w = huber / root;
-    } else {
-      total += s;
-    }
+    const double w = internal::AddHuber(r.squaredNorm(), huber, &total);
     if (!h) continue;
     J *= inv_sigma;
-    // d(p_cam)/d(phi) = -[R X]x for R' = exp(phi) R; d(p_cam)/d(t) = I.
-    Jx.leftCols<3>() << J(0, 2) * rotated.y() - J(0, 1) * rotated.z(), J(0, 0) * rotated.z() - J(0, 2) * rotated.x(),
-        J(0, 1) * rotated.x() - J(0, 0) * rotated.y(), J(1, 2) * rotated.y() - J(1, 1) * rotated.z(),
-        J(1, 0) * rotated.z() - J(1, 2) * rotated.x(), J(1, 1) * rotated.x() - J(1, 0) * rotated.y();
-    Jx.rightCols<3>() = J;
+    const Eigen::Matrix<double, 2, 6> Jx = internal::PoseTangentJacobian(J, rotated);
     h->noalias() += w * Jx.transpose() * Jx;
     g->noalias() += w * Jx.transpose() * r;
   }
@@ -77,20 +64,14 @@ bool Linearize(const CameraModel& camera, const std::vector<PointObservation>& o
 }
 
 PoseState Plus(const PoseState& x, const Eigen::Matrix<double, 6, 1>& dx) {
-  const Eigen::Vector3d phi = dx.head<3>();
-  const double angle = phi.norm();
-  const Eigen::Quaterniond dq =
-      angle > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, phi / angle))
-                    : Eigen::Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
-  return {(dq * x.q).normalized(), x.t + dx.tail<3>()};
+  return {internal::RotateLeft(x.q, dx.head<3>()), x.t + dx.tail<3>()};
 }
 
 PassResult RunPosePass(const CameraModel& camera, const std::vector<PointObservation>& obs,
                        const std::vector<bool>& active, bool robust, const PoseOptimizerOptions& options,
                        Se3Block* cam_from_world) {
-  // Ceres' defaults for a trust-region LM solve.
-  constexpr double kFunctionTolerance = 1e-6, kGradientTolerance = 1e-10, kParameterTolerance = 1e-8;
-  constexpr double kMinRelativeDecrease = 1e-3, kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;
+  using internal::kGradientTolerance, internal::kParameterTolerance;
+  constexpr double kFunctionTolerance = 1e-6;  // Ceres' default
   PassResult out;
   const double huber = robust ? options.huber_delta : 0.0;
   PoseState x{Eigen::Quaterniond((*cam_from_world)[3], (*cam_from_world)[0], (*cam_from_world)[1],
@@ -113,7 +94,7 @@ PassResult RunPosePass(const CameraModel& camera, const std::vector<PointObserva
       break;
     }
     Eigen::Matrix<double, 6, 6> a = h;
-    a.diagonal() += mu * h.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    a.diagonal() += internal::DampingOf(h, mu);
     const Eigen::Matrix<double, 6, 1> dx = a.ldlt().solve(-g);
     if (!dx.allFinite()) {
       out.message = "pose pass: the linear solve failed";
@@ -133,13 +114,8 @@ PassResult RunPosePass(const CameraModel& camera, const std::vector<PointObserva
                            std::isfinite(new_cost);
     const double model_decrease = -(g.dot(dx) + 0.5 * dx.dot(h * dx));
     const double rho = evaluated && model_decrease > 0.0 ? (cost - new_cost) / model_decrease : -1.0;
-    if (rho < kMinRelativeDecrease) {  // a worse step (or a point behind the camera): shrink
-      mu *= nu;
-      nu *= 2.0;
-      continue;
-    }
-    mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-    nu = 2.0;
+    // A worse step (or a point behind the camera) shrinks the trust region.
+    if (!internal::UpdateDamping(rho, &mu, &nu)) continue;
     const double decrease = cost - new_cost;
     x = candidate;
     cost = new_cost;
