@@ -120,57 +120,76 @@ bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOp
   return std::isfinite(total);
 }
 
-template <typename M>
-M Damped(const M& h, double mu) {
-  M a = h;
-  a.diagonal() += DampingOf(h, mu);
-  return a;
+// Ceres' Jacobi scaling: each variable's column scaled by 1 / (1 + sqrt(diag(J'J))), so the
+// reduced system stays well conditioned when some points sit close to a camera (Jacobians
+// of 1e6) and others far away (1e-3); unscaled, its solve lost the step and every step of
+// such a BA was rejected.
+template <int N>
+Eigen::Matrix<double, N, 1> JacobiScale(const Eigen::Matrix<double, N, N>& h) {
+  return (1.0 + h.diagonal().array().sqrt()).inverse().matrix();
 }
 
 // Solves the damped system by eliminating the points (Schur complement on the poses) and
-// back-substituting them. Returns false if the reduced system cannot be solved.
-// `model_decrease`: the linear model's predicted cost decrease for the step.
+// back-substituting them, in Jacobi-scaled variables like Ceres (the LM damping, mu times
+// the clamped diagonal, is taken of the scaled system). Returns false if the reduced system
+// cannot be solved. `model_decrease`: the linear model's predicted cost decrease.
 bool SolveStep(const BundleProblem& problem, const Layout& l, const BundlePassVariables& v, const Linearization& lin,
                double mu, std::vector<Vec6>* dpose, std::vector<Eigen::Vector3d>* dpoint, double* model_decrease) {
   const int n = l.num_free_poses;
+  std::vector<Vec6> su(n);
+  std::vector<Eigen::Vector3d> sv(l.num_free_points);
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(6 * n, 6 * n);
   Eigen::VectorXd b(6 * n);
-  double decrease = 0.0;  // -g.d + d' D d, halved at the end (exact solve of (H + D) d = -g)
+  std::vector<Vec6> damp_u(n);
+  double decrease = 0.0;  // -g.d + d' D d in scaled variables, halved at the end (exact solve)
   for (int p = 0; p < n; ++p) {
-    S.block<6, 6>(6 * p, 6 * p) = Damped(lin.U[p], mu);
-    b.segment<6>(6 * p) = -lin.gu[p];
+    su[p] = JacobiScale<6>(lin.U[p]);
+    const Mat6 u = su[p].asDiagonal() * lin.U[p] * su[p].asDiagonal();
+    damp_u[p] = DampingOf(u, mu);
+    S.block<6, 6>(6 * p, 6 * p) = u;
+    S.block<6, 6>(6 * p, 6 * p).diagonal() += damp_u[p];
+    b.segment<6>(6 * p) = -su[p].cwiseProduct(lin.gu[p]);
   }
   std::vector<Eigen::Matrix3d> v_inv(l.num_free_points);
-  std::vector<Mat63> wv(l.obs.size());
+  std::vector<Eigen::Vector3d> damp_v(l.num_free_points);
+  std::vector<Mat63> ws(l.obs.size());  // scaled W
   for (int m = 0; m < l.num_free_points; ++m) {
-    const Eigen::Matrix3d vd = Damped(lin.V[m], mu);
-    bool invertible = false;
-    double det = 0.0;
-    vd.computeInverseAndDetWithCheck(v_inv[m], det, invertible);
-    if (!invertible || !v_inv[m].allFinite()) return false;
+    sv[m] = JacobiScale<3>(lin.V[m]);
+    Eigen::Matrix3d vd = sv[m].asDiagonal() * lin.V[m] * sv[m].asDiagonal();
+    damp_v[m] = DampingOf(vd, mu);
+    vd.diagonal() += damp_v[m];
+    v_inv[m] = vd.inverse();
+    if (!v_inv[m].allFinite()) return false;
+    const Eigen::Vector3d gv = sv[m].cwiseProduct(lin.gv[m]);
+    for (int a = l.point_begin[m]; a < l.point_begin[m + 1]; ++a) {
+      const int ka = l.point_obs[a];
+      const int pa = l.free_pose[problem.observations[l.obs[ka]].pose_index];
+      if (pa >= 0) ws[ka].noalias() = su[pa].asDiagonal() * lin.W[ka] * sv[m].asDiagonal();
+    }
     for (int a = l.point_begin[m]; a < l.point_begin[m + 1]; ++a) {
       const int ka = l.point_obs[a];
       const int pa = l.free_pose[problem.observations[l.obs[ka]].pose_index];
       if (pa < 0) continue;
-      wv[ka].noalias() = lin.W[ka] * v_inv[m];
-      b.segment<6>(6 * pa).noalias() += wv[ka] * lin.gv[m];
+      const Mat63 wv = ws[ka] * v_inv[m];
+      b.segment<6>(6 * pa).noalias() += wv * gv;
       for (int c = a; c < l.point_begin[m + 1]; ++c) {
         const int kc = l.point_obs[c];
         const int pc = l.free_pose[problem.observations[l.obs[kc]].pose_index];
         if (pc < 0) continue;
-        const Mat6 block = wv[ka] * lin.W[kc].transpose();
+        const Mat6 block = wv * ws[kc].transpose();
         S.block<6, 6>(6 * pa, 6 * pc) -= block;
         if (c != a) S.block<6, 6>(6 * pc, 6 * pa) -= block.transpose();
       }
     }
   }
+  int gauge_row = -1;
   if (v.scale_gauge_pose >= 0 && l.free_pose[v.scale_gauge_pose] >= 0) {
     // The held translation component: decoupled by its zero Jacobian column; its step is 0.
-    const int row = 6 * l.free_pose[v.scale_gauge_pose] + 3 + v.scale_gauge_axis;
-    S.row(row).setZero();
-    S.col(row).setZero();
-    S(row, row) = 1.0;
-    b(row) = 0.0;
+    gauge_row = 6 * l.free_pose[v.scale_gauge_pose] + 3 + v.scale_gauge_axis;
+    S.row(gauge_row).setZero();
+    S.col(gauge_row).setZero();
+    S(gauge_row, gauge_row) = 1.0;
+    b(gauge_row) = 0.0;
   }
   Eigen::VectorXd d = Eigen::VectorXd::Zero(6 * n);
   if (n > 0) {
@@ -179,28 +198,26 @@ bool SolveStep(const BundleProblem& problem, const Layout& l, const BundlePassVa
     d = ldlt.solve(b);
     if (!d.allFinite()) return false;
   }
+  if (gauge_row >= 0) d(gauge_row) = 0.0;
   dpose->resize(n);
   for (int p = 0; p < n; ++p) {
-    (*dpose)[p] = d.segment<6>(6 * p);
-    const Vec6 damp = DampingOf(lin.U[p], mu);
-    decrease += -lin.gu[p].dot((*dpose)[p]) + (*dpose)[p].dot(damp.cwiseProduct((*dpose)[p]));
-  }
-  if (v.scale_gauge_pose >= 0 && l.free_pose[v.scale_gauge_pose] >= 0) {
-    (*dpose)[l.free_pose[v.scale_gauge_pose]][3 + v.scale_gauge_axis] = 0.0;
+    const Vec6 dp = d.segment<6>(6 * p);  // scaled
+    decrease += -(su[p].cwiseProduct(lin.gu[p])).dot(dp) + dp.dot(damp_u[p].cwiseProduct(dp));
+    (*dpose)[p] = su[p].cwiseProduct(dp);
   }
   dpoint->resize(l.num_free_points);
   for (int m = 0; m < l.num_free_points; ++m) {
-    Eigen::Vector3d rhs = -lin.gv[m];
+    const Eigen::Vector3d gv = sv[m].cwiseProduct(lin.gv[m]);
+    Eigen::Vector3d rhs = -gv;
     for (int a = l.point_begin[m]; a < l.point_begin[m + 1]; ++a) {
       const int ka = l.point_obs[a];
       const int pa = l.free_pose[problem.observations[l.obs[ka]].pose_index];
-      if (pa >= 0) rhs.noalias() -= lin.W[ka].transpose() * (*dpose)[pa];
+      if (pa >= 0) rhs.noalias() -= ws[ka].transpose() * d.segment<6>(6 * pa);
     }
-    const Eigen::Vector3d dx = v_inv[m] * rhs;
+    const Eigen::Vector3d dx = v_inv[m] * rhs;  // scaled
     if (!dx.allFinite()) return false;
-    (*dpoint)[m] = dx;
-    const Eigen::Vector3d damp = DampingOf(lin.V[m], mu);
-    decrease += -lin.gv[m].dot(dx) + dx.dot(damp.cwiseProduct(dx));
+    decrease += -gv.dot(dx) + dx.dot(damp_v[m].cwiseProduct(dx));
+    (*dpoint)[m] = sv[m].cwiseProduct(dx);
   }
   *model_decrease = 0.5 * decrease;
   return true;

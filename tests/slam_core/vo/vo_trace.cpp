@@ -28,11 +28,12 @@ int main(int argc, char** argv) {
   CLI::App app{"vo_trace: per-frame VO diagnosis on a simulated agent"};
   std::string scenario = "hall3", vocab_path = CCM_DEFAULT_VOCABULARY;
   int agent = 0;
-  int64_t from = 0, to = -1;
+  int64_t from = 0, to = -1, stride = 1;
   app.add_option("--scenario", scenario, "built-in, gen:SEED or YAML")->capture_default_str();
   app.add_option("--agent", agent, "agent index")->capture_default_str();
   app.add_option("--from", from, "first frame to print")->capture_default_str();
   app.add_option("--to", to, "last frame to run (-1: all)")->capture_default_str();
+  app.add_option("--stride", stride, "every n-th frame (2: 10 Hz of a 20 Hz flight)")->capture_default_str();
   app.add_option("--vocab", vocab_path, "relocalization vocabulary ('none': brute force)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   std::string error;
@@ -50,11 +51,11 @@ int main(int argc, char** argv) {
     }
     vocab = std::make_shared<const ccm::Vocabulary>(std::move(*v));
   }
-  ccm::sim::SimFrameSource source(sim, agent, 0, 1, to >= 0 ? to + 1 : -1);
+  ccm::sim::SimFrameSource source(sim, agent, 0, stride, to >= 0 ? to + 1 : -1);
   std::shared_ptr<const ccm::CameraModel> camera(ccm::MakeCamera(source.intrinsics()));
   ccm::AckAll acks;  // standalone, as ccm_agent --standalone
   ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, ccm::VoOptions{}, &acks, true, vocab);
-  const double rate = sim->scenario().agents.at(agent).rate_hz;
+  const double rate = sim->scenario().agents.at(agent).rate_hz / static_cast<double>(stride);
   std::deque<Sample> window;  // tracked frames of the last second
   std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg\n");
   int64_t index = 0;
