@@ -5,8 +5,10 @@
 // algebra itself; it was the largest share of the agent's CPU (docs/deployment.md
 // "Footprint by thread"). This is the same problem solved the same way as Ceres' DENSE_SCHUR
 // trust-region LM: same residuals, Huber weighting (Ceres' correction is the weight rho' for
-// Huber), diagonal LM damping clamped like Ceres', Nielsen's radius update and Ceres' stopping
-// tolerances, so it reaches the same minimum (optimization_test compares the two).
+// Huber), Jacobi-scaled variables with the diagonal LM damping clamped like Ceres', Nielsen's
+// radius update and Ceres' stopping tolerances, so it reaches the same minimum
+// (dense_schur_bundle_test compares the two). The scaling matters: without it a point of tiny
+// block (gross outliers under small Huber weights) made every step of a pass fail.
 #pragma once
 
 #include <atomic>
