@@ -265,7 +265,15 @@ double StepAndStateNorms(const Layout& l, const State& x, const std::vector<Vec6
 }  // namespace
 
 int CountFreePoses(const BundleProblem& problem, const std::vector<bool>& active, const std::vector<bool>& pose_fixed) {
-  return MakeLayout(problem, active, pose_fixed).num_free_poses;
+  std::vector<bool> seen(problem.poses.size(), false);
+  int n = 0;
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    const int p = problem.observations[i].pose_index;
+    if (!active[i] || pose_fixed[p] || seen[p]) continue;
+    seen[p] = true;
+    ++n;
+  }
+  return n;
 }
 
 BundlePassResult RunDenseSchurPass(const BundleProblem& problem, const std::vector<bool>& active,
