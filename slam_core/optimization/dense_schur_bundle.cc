@@ -70,19 +70,17 @@ struct State {
   std::vector<Eigen::Vector3d> points;
 };
 
-// Cost (Ceres' convention, 1/2 sum rho) and, if `lin` is set, its blocks. False when an
-// observation cannot be evaluated (a point behind a pinhole camera).
+// Cost (Ceres' convention, 1/2 sum rho) and its blocks. False when an observation cannot be
+// evaluated (a point behind a pinhole camera).
 bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOptions& options,
                const BundlePassVariables& v, const State& x, Linearization* lin) {
   std::vector<Eigen::Matrix3d> R(problem.poses.size());
   std::vector<bool> have_r(problem.poses.size(), false);
-  if (lin) {
-    lin->U.assign(l.num_free_poses, Mat6::Zero());
-    lin->gu.assign(l.num_free_poses, Vec6::Zero());
-    lin->V.assign(l.num_free_points, Eigen::Matrix3d::Zero());
-    lin->gv.assign(l.num_free_points, Eigen::Vector3d::Zero());
-    lin->W.resize(l.obs.size());
-  }
+  lin->U.assign(l.num_free_poses, Mat6::Zero());
+  lin->gu.assign(l.num_free_poses, Vec6::Zero());
+  lin->V.assign(l.num_free_points, Eigen::Matrix3d::Zero());
+  lin->gv.assign(l.num_free_points, Eigen::Vector3d::Zero());
+  lin->W.resize(l.obs.size());
   double total = 0.0;
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J;
@@ -96,11 +94,10 @@ bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOp
     }
     const Eigen::Vector3d rotated = R[o.pose_index] * x.points[o.point_index];
     const CameraModel& camera = *problem.cameras[problem.poses[o.pose_index].camera_index];
-    if (!camera.ProjectForCost(rotated + Eigen::Vector3d(b[4], b[5], b[6]), &uv, lin ? &J : nullptr)) return false;
+    if (!camera.ProjectForCost(rotated + Eigen::Vector3d(b[4], b[5], b[6]), &uv, &J)) return false;
     const double inv_sigma = 1.0 / o.sigma_px;
     const Eigen::Vector2d r = (uv - o.uv_px) * inv_sigma;
     const double w = AddHuber(r.squaredNorm(), options.huber_delta, &total);
-    if (!lin) continue;
     J *= inv_sigma;
     const int p = l.free_pose[o.pose_index], m = l.free_point[o.point_index];
     if (p >= 0) {
@@ -116,7 +113,7 @@ bool Linearize(const BundleProblem& problem, const Layout& l, const BundlePassOp
       if (p >= 0) lin->W[k].noalias() = w * Jp.transpose() * Jx;
     }
   }
-  if (lin) lin->cost = 0.5 * total;
+  lin->cost = 0.5 * total;
   return std::isfinite(total);
 }
 
