@@ -42,7 +42,7 @@ struct AgentConfig {
   std::string ros2_image;              // a ROS 2 camera driver's Image topic instead of `camera` (docs/ros2.md)
   std::string ros2_camera_info;        // its CameraInfo topic; empty: beside the image topic
   int ros2_domain = -1;                // the camera's ROS 2 domain; -1: $ROS_DOMAIN_ID, else 0
-  int opencv_threads = 0;              // OpenCV worker threads (image pyramids); 0: OpenCV's default (all cores)
+  int opencv_threads = 1;              // OpenCV worker threads (image pyramids); 0: OpenCV's default (all cores)
   bool skip_late_frames = false;       // recorded input at --rate realtime behaves as a camera: late frames skipped
 
   /// The VO options the agent runs with: the `vo:` section with N and B applied.

@@ -115,10 +115,11 @@ bool Resolve(const GivenOnCommandLine& g, AgentArgs* a, std::string* error) {
   if (run.ros2_domain < 0) run.ros2_domain = config.ros2_domain;
   if (!*g.skip_late) run.skip_late_frames = config.skip_late_frames;
   run.qos_file = config.qos_file;
-  // Weak boards: OpenCV would otherwise start one worker per core for the image pyramids,
-  // competing with tracking and local mapping (docs/deployment.md, budgets).
-  if (config.opencv_threads > 0) cv::setNumThreads(config.opencv_threads);
   if (std::string problem = config.Validate(); !problem.empty()) return *error = problem, false;
+  // One by default: OpenCV's pool (one worker per core) parallelizes the image pyramids of a
+  // single small image, which costs more CPU in its workers than it saves the tracking thread
+  // (docs/deployment.md "OpenCV's worker pool").
+  if (config.opencv_threads > 0) cv::setNumThreads(config.opencv_threads);
   if (!rt::SetupLogging(config.log_level, error)) return false;
   run.agent_id = config.agent_id;
   run.vo = config.EffectiveVo();

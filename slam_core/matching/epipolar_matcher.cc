@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "slam_core/matching/match_internal.h"
 
@@ -44,37 +45,48 @@ std::vector<double> BandSines(const EpipolarView& view2, const Eigen::Vector3d& 
 // structure-of-arrays form, which the compiler vectorizes, keeps a superset of the band (its
 // margin is far above float rounding on unit vectors); `visit` then applies the exact double
 // test to those pairs in the same order, so the matches are exactly those of visiting every
-// pair. (Sorting view 2 by its angle around the baseline and visiting only the window a plane
-// reaches was slower: under forward motion most keypoints sit near the epipole, where the
-// window is wide.)
+// pair. Only the keypoints that can match enter the pass (in a tracked keyframe a third to a
+// half already hold a map point), and a block's hits are taken from a bit mask, not by
+// visiting its 16 lanes again. (Sorting view 2 by its angle around the baseline and visiting
+// only the window a plane reaches was slower: under forward motion most keypoints sit near
+// the epipole, where the window is wide.)
 template <typename Visit>
 void ScanAllPairs(const std::vector<Eigen::Vector3d>& normal1, const EpipolarView& view2,
                   const std::vector<double>& band_sin, Visit&& visit) {
   constexpr float kMargin = 1e-4f;
   constexpr size_t kBlock = 16;  // a block without a hit (most of them) costs a few vector ops
-  const size_t n2 = band_sin.size(), padded = (n2 + kBlock - 1) / kBlock * kBlock;
+  std::vector<int> index2;  // the candidates of view 2, in increasing order
+  index2.reserve(band_sin.size());
+  for (size_t j = 0; j < band_sin.size(); ++j) {
+    if (band_sin[j] >= 0.0) index2.push_back(static_cast<int>(j));
+  }
+  const size_t n2 = index2.size(), padded = (n2 + kBlock - 1) / kBlock * kBlock;
   // Padding: band -1 is never reached (|dot| - band >= 1).
   std::vector<float> x(padded, 0.0f), y(padded, 0.0f), z(padded, 0.0f), band(padded, -1.0f);
-  for (size_t j = 0; j < n2; ++j) {
-    x[j] = static_cast<float>(view2.bearings[j].x());
-    y[j] = static_cast<float>(view2.bearings[j].y());
-    z[j] = static_cast<float>(view2.bearings[j].z());
-    if (band_sin[j] >= 0.0) band[j] = static_cast<float>(band_sin[j]) + kMargin;
+  for (size_t c = 0; c < n2; ++c) {
+    const Eigen::Vector3d& b = view2.bearings[index2[c]];
+    x[c] = static_cast<float>(b.x());
+    y[c] = static_cast<float>(b.y());
+    z[c] = static_cast<float>(b.z());
+    band[c] = static_cast<float>(band_sin[index2[c]]) + kMargin;
   }
   float d[kBlock];
   for (size_t i = 0; i < normal1.size(); ++i) {
     if (normal1[i].isZero()) continue;
     const float nx = static_cast<float>(normal1[i].x()), ny = static_cast<float>(normal1[i].y()),
                 nz = static_cast<float>(normal1[i].z());
-    for (size_t j0 = 0; j0 < padded; j0 += kBlock) {
+    for (size_t c0 = 0; c0 < padded; c0 += kBlock) {
       int hit = 0;
       for (size_t k = 0; k < kBlock; ++k) {
-        d[k] = std::fabs(nx * x[j0 + k] + ny * y[j0 + k] + nz * z[j0 + k]) - band[j0 + k];
+        d[k] = std::fabs(nx * x[c0 + k] + ny * y[c0 + k] + nz * z[c0 + k]) - band[c0 + k];
         hit |= d[k] <= 0.0f;
       }
       if (hit == 0) continue;
-      for (size_t k = 0; k < kBlock; ++k) {
-        if (d[k] <= 0.0f) visit(static_cast<int>(i), static_cast<int>(j0 + k));
+      std::uint32_t mask = 0;  // branch-free: a block's few hits are scattered
+      for (size_t k = 0; k < kBlock; ++k) mask |= static_cast<std::uint32_t>(d[k] <= 0.0f) << k;
+      while (mask != 0) {
+        visit(static_cast<int>(i), index2[c0 + __builtin_ctz(mask)]);
+        mask &= mask - 1;
       }
     }
   }

@@ -33,6 +33,7 @@ TEST(AgentConfig, LoadsValidFile) {
   EXPECT_EQ(c.max_keyframes, 10);
   EXPECT_DOUBLE_EQ(c.publish_rate_hz, 4.0);
   EXPECT_TRUE(c.map_sharing);
+  EXPECT_EQ(c.opencv_threads, 1) << "OpenCV's pool cost more CPU than it saved (docs/deployment.md)";
   EXPECT_DOUBLE_EQ(c.anchor_duplicates.distance_ratio, 0.10) << "near-duplicates leave as anchors by default";
   ASSERT_TRUE(LoadAgentConfig(Write("a2.yaml", "anchor_duplicate_distance_ratio: 0\n"), &c, &error)) << error;
   EXPECT_FALSE(c.anchor_duplicates.enabled());
