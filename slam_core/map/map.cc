@@ -267,7 +267,8 @@ bool Map::ReplaceMapPoint(MapPointId old_id, MapPointId keep_id) {
 void Map::UpdateMapPointAppearance(MapPointId mp_id) {
   const auto mp = map_point(mp_id);
   if (!mp) return;
-  const auto obs = mp->observations();
+  std::uint64_t stamp = 0;
+  const auto obs = mp->observations(&stamp);
   if (obs.empty()) return;
   const Eigen::Vector3d p = mp->position();
   std::vector<OrbDescriptor> descs;
@@ -279,10 +280,15 @@ void Map::UpdateMapPointAppearance(MapPointId mp_id) {
     normal += (p - kf->camera_center()).normalized();
   }
   if (descs.empty()) return;
+  // The descriptor depends only on the observations (and which of their keyframes this map
+  // holds): after a BA moved the point it stays, and the quadratic search below, most of the
+  // cost of an update, is skipped.
+  const std::uint64_t basis = (stamp << 16) | (descs.size() & 0xffff);
+  const bool same_descriptor = mp->DescriptorBasedOn(basis);
   // Representative descriptor: the one with the smallest median distance to the others.
   size_t best = 0;
   int best_median = std::numeric_limits<int>::max();
-  for (size_t i = 0; i < descs.size(); ++i) {
+  for (size_t i = 0; !same_descriptor && i < descs.size(); ++i) {
     std::vector<int> d;
     for (size_t j = 0; j < descs.size(); ++j) d.push_back(HammingDistance(descs[i], descs[j]));
     std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
@@ -299,7 +305,7 @@ void Map::UpdateMapPointAppearance(MapPointId mp_id) {
     max_d = dist * pyr.scale[level];
     min_d = max_d / pyr.scale[pyr.num_levels - 1];
   }
-  mp->SetAppearance(descs[best], normal.normalized(), min_d, max_d);
+  mp->SetAppearance(same_descriptor ? mp->descriptor() : descs[best], normal.normalized(), min_d, max_d, basis);
 }
 
 EssentialGraph Map::BuildEssentialGraph() const {

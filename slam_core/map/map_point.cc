@@ -30,6 +30,11 @@ std::vector<std::pair<KeyframeId, int>> MapPoint::observations() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return observations_;
 }
+std::vector<std::pair<KeyframeId, int>> MapPoint::observations(std::uint64_t* stamp) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  *stamp = observations_stamp_;
+  return observations_;
+}
 int MapPoint::num_observations() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return static_cast<int>(observations_.size());
@@ -54,6 +59,7 @@ bool MapPoint::AddObservation(KeyframeId kf, int keypoint_index) {
   const auto it = FindObs(observations_, kf);
   if (it != observations_.end() && it->first == kf) return false;
   observations_.insert(it, {kf, keypoint_index});
+  ++observations_stamp_;
   return true;
 }
 
@@ -62,6 +68,7 @@ bool MapPoint::EraseObservation(KeyframeId kf) {
   const auto it = FindObs(observations_, kf);
   if (it == observations_.end() || it->first != kf) return false;
   observations_.erase(it);
+  ++observations_stamp_;
   return true;
 }
 
@@ -82,12 +89,18 @@ double MapPoint::max_distance_m() const {
   return max_distance_m_;
 }
 void MapPoint::SetAppearance(const OrbDescriptor& descriptor, const Eigen::Vector3d& normal, double min_distance_m,
-                             double max_distance_m) {
+                             double max_distance_m, std::uint64_t basis) {
   std::lock_guard<std::mutex> lock(mutex_);
   descriptor_ = descriptor;
+  descriptor_basis_ = basis;
   normal_ = normal;
   min_distance_m_ = min_distance_m;
   max_distance_m_ = max_distance_m;
+}
+
+bool MapPoint::DescriptorBasedOn(std::uint64_t basis) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return basis != kNoBasis && descriptor_basis_ == basis;
 }
 
 int MapPoint::PredictLevel(double distance_m, const ScalePyramid& pyramid) const {

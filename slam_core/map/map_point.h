@@ -3,6 +3,7 @@
 // Owned by a Map through shared_ptr; any thread may call it (own mutex, short sections).
 #pragma once
 
+#include <cstdint>
 #include <mutex>
 #include <optional>
 #include <utility>
@@ -29,6 +30,8 @@ class MapPoint {
 
   /// Snapshot of (keyframe, keypoint index) pairs, sorted by keyframe id.
   std::vector<std::pair<KeyframeId, int>> observations() const;
+  /// The same, and a stamp that changes whenever an observation is added or erased.
+  std::vector<std::pair<KeyframeId, int>> observations(std::uint64_t* stamp) const;
   int num_observations() const;
   std::optional<int> KeypointIn(KeyframeId kf) const;
   /// The Map keeps both sides consistent: call Map::AddObservation, not these.
@@ -39,9 +42,14 @@ class MapPoint {
   Eigen::Vector3d normal() const;
   double min_distance_m() const;
   double max_distance_m() const;
-  /// Set by Map::UpdateMapPointAppearance from the observing keyframes.
+  /// Set by Map::UpdateMapPointAppearance from the observing keyframes. `basis` names what
+  /// the descriptor was computed from (Map's fingerprint of the observations), so that an
+  /// update after the point only moved can keep it; kNoBasis: unknown (recomputed next time).
+  static constexpr std::uint64_t kNoBasis = ~std::uint64_t{0};
   void SetAppearance(const OrbDescriptor& descriptor, const Eigen::Vector3d& normal, double min_distance_m,
-                     double max_distance_m);
+                     double max_distance_m, std::uint64_t basis = kNoBasis);
+  /// Whether the descriptor was computed from observations with this fingerprint.
+  bool DescriptorBasedOn(std::uint64_t basis) const;
   /// Pyramid level at which the point should appear at this distance (ORB-SLAM rule).
   int PredictLevel(double distance_m, const ScalePyramid& pyramid) const;
 
@@ -64,7 +72,9 @@ class MapPoint {
   Eigen::Vector3d position_world_;
   KeyframeId reference_kf_;
   std::vector<std::pair<KeyframeId, int>> observations_;  // sorted by id
+  std::uint64_t observations_stamp_ = 0;                   // +1 per change of observations_
   OrbDescriptor descriptor_;
+  std::uint64_t descriptor_basis_ = kNoBasis;
   Eigen::Vector3d normal_ = Eigen::Vector3d::Zero();
   double min_distance_m_ = 0.0, max_distance_m_ = 0.0;
   bool bad_ = false;

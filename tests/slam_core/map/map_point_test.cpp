@@ -48,6 +48,36 @@ TEST(MapPoint, MedianDescriptorPicksTheCentralOne) {
   EXPECT_EQ(median_of(mp->descriptor()), best);
 }
 
+// The descriptor is kept across updates while the observations stay the same (the point
+// only moved, as after a BA) and follows them as soon as they change.
+TEST(MapPoint, DescriptorFollowsTheObservationsNotThePosition) {
+  testing::MapBuilder b(3);
+  const KeyframeId k1 = b.AddKeyframe(0), k2 = b.AddKeyframe(1), k3 = b.AddKeyframe(2), k4 = b.AddKeyframe(3);
+  const MapPointId id = b.AddPointSeenBy({k1, k2, k3, k4});
+  const auto mp = b.map().map_point(id);
+  b.map().UpdateMapPointAppearance(id);
+  const OrbDescriptor first = mp->descriptor();
+  const Eigen::Vector3d first_normal = mp->normal();
+  mp->SetPosition(mp->position() + Eigen::Vector3d(2.0, 0.0, 0.0));
+  b.map().UpdateMapPointAppearance(id);
+  EXPECT_EQ(mp->descriptor(), first);
+  EXPECT_GT((mp->normal() - first_normal).norm(), 0.1) << "the geometry follows the move";
+  // Erase the keyframe whose descriptor represents the point: a new one must be chosen.
+  KeyframeId chosen;
+  for (const auto& [kf, idx] : mp->observations()) {
+    if (b.map().keyframe(kf)->features().descriptors[idx] == first) chosen = kf;
+  }
+  ASSERT_TRUE(chosen.valid());
+  b.map().EraseObservation(chosen, id);
+  b.map().UpdateMapPointAppearance(id);
+  bool from_remaining = false;
+  for (const auto& [kf, idx] : mp->observations()) {
+    from_remaining |= b.map().keyframe(kf)->features().descriptors[idx] == mp->descriptor();
+  }
+  EXPECT_TRUE(from_remaining);
+  EXPECT_NE(mp->descriptor(), first);
+}
+
 TEST(MapPoint, PredictLevelGrowsWhenCloser) {
   MapPoint mp(MapPointId::Make(1, 1), {0, 0, 5}, KeyframeId::Make(1, 1), OrbDescriptor{});
   const ScalePyramid pyr = ScalePyramid::Make(8, 1.2);
