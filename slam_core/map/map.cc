@@ -37,6 +37,17 @@ std::shared_ptr<MapPoint> Map::map_point(MapPointId id) const {
   return it == map_points_.end() ? nullptr : it->second;
 }
 
+std::vector<std::shared_ptr<MapPoint>> Map::map_points(const std::vector<MapPointId>& ids) const {
+  std::vector<std::shared_ptr<MapPoint>> out;
+  out.reserve(ids.size());
+  std::shared_lock<std::shared_mutex> lock(tables_mutex_);
+  for (const MapPointId id : ids) {
+    const auto it = map_points_.find(id);
+    out.push_back(it == map_points_.end() ? nullptr : it->second);
+  }
+  return out;
+}
+
 std::vector<std::shared_ptr<KeyFrame>> Map::keyframes() const {
   std::vector<std::shared_ptr<KeyFrame>> out;
   {

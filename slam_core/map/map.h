@@ -52,6 +52,8 @@ class Map {
   bool AddMapPoint(std::shared_ptr<MapPoint> mp);  ///< false if the id exists
   std::shared_ptr<KeyFrame> keyframe(KeyframeId id) const;  ///< nullptr if absent
   std::shared_ptr<MapPoint> map_point(MapPointId id) const;
+  /// map_point() of each id under one lock (nullptr where absent), in the order given.
+  std::vector<std::shared_ptr<MapPoint>> map_points(const std::vector<MapPointId>& ids) const;
   std::vector<std::shared_ptr<KeyFrame>> keyframes() const;  ///< sorted by id
   std::vector<std::shared_ptr<MapPoint>> map_points() const;  ///< sorted by id
   size_t num_keyframes() const;

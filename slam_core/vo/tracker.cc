@@ -330,12 +330,15 @@ int Tracker::TrackLocalMap(VoFrame* f) {
   for (size_t i = 0; i < f->size(); ++i) {
     if (f->map_points[i]) already.insert(f->map_points[i]->id());
   }
-  std::vector<std::shared_ptr<MapPoint>> points;
+  std::vector<MapPointId> ids;  // ~10^4 per frame: looked up under one lock, not one each
   for (const auto& kf : local_kfs) {
     for (const MapPointId id : kf->map_points()) {
-      if (!id.valid() || !already.insert(id).second) continue;
-      if (const auto mp = map_->map_point(id); mp && !mp->bad()) points.push_back(mp);
+      if (id.valid() && already.insert(id).second) ids.push_back(id);
     }
+  }
+  std::vector<std::shared_ptr<MapPoint>> points;
+  for (auto& mp : map_->map_points(ids)) {
+    if (mp && !mp->bad()) points.push_back(std::move(mp));
   }
   SearchMapPointsByProjection(f, points, *shared_->camera, *shared_->pyramid, shared_->options.local_map_radius_px, true,
                               shared_->options.min_view_cos);

@@ -99,6 +99,12 @@ TEST(MapGraph, ErasingKeyframeDetachesObservationsAndErasesOrphans) {
   EXPECT_EQ(mp->num_observations(), 1);
   EXPECT_EQ(mp->reference_kf(), c) << "reference moves to a surviving observer";
   EXPECT_EQ(b.map().keyframe(a), nullptr);
+  // The bulk lookup: the same answers as one by one, in the order asked.
+  const auto both = b.map().map_points({only_a, shared, only_a});
+  ASSERT_EQ(both.size(), 3u);
+  EXPECT_EQ(both[0], nullptr);
+  EXPECT_EQ(both[1], mp);
+  EXPECT_EQ(both[2], nullptr);
 }
 
 TEST(MapGraph, ReplaceMapPointMovesObservationsAndResolvesConflicts) {
