@@ -11,6 +11,19 @@ std::shared_ptr<const CameraModel> MakeTestCamera() {
   return std::shared_ptr<const CameraModel>(MakeCamera(EurocCam0Intrinsics()));
 }
 
+std::shared_ptr<const CameraModel> MakeTestFisheye() {
+  CameraIntrinsics k;
+  k.type = CameraType::kFisheyeEquidistant;
+  k.width_px = 752;
+  k.height_px = 480;
+  k.fx = 300;
+  k.fy = 300;
+  k.cx = 376;
+  k.cy = 240;
+  k.distortion = {0.01, -0.005, 0.001, -0.0002};
+  return std::shared_ptr<const CameraModel>(MakeCamera(k));
+}
+
 namespace {
 
 // Camera on the circle at angle theta, looking outwards (z radial, y down = -world z).

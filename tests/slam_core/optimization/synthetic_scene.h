@@ -33,6 +33,8 @@ struct Scene {
 };
 
 std::shared_ptr<const CameraModel> MakeTestCamera();
+/// A 752x480 equidistant fisheye (300 px focal length, mild distortion).
+std::shared_ptr<const CameraModel> MakeTestFisheye();
 Scene MakeScene(const SceneOptions& options);
 
 /// Perturbs non-fixed poses (rotation_deg / translation_m std per axis) and points.
