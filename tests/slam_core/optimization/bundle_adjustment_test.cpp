@@ -3,8 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <ceres/numeric_diff_cost_function.h>
-#include <ceres/problem.h>
-#include <ceres/solver.h>
 
 #include "slam_core/optimization/pose_manifold.h"
 #include "slam_core/optimization/reprojection_cost.h"
