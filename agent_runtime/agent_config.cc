@@ -75,6 +75,7 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("kf_max_interval_s", &vo->keyframe.max_interval_s);
   r.Get("local_ba_window", &vo->local_ba_window);
   r.Get("triangulation_neighbours", &vo->triangulation_neighbours);
+  r.Get("triangulate_widest_baseline_first", &vo->triangulate_widest_baseline_first);
   r.Get("min_triangulation_parallax_deg", &vo->min_triangulation_parallax_deg);
   r.Get("local_ba_max_fixed", &vo->local_ba_max_fixed);
   r.Get("triangulation_parallax_sigmas", &vo->triangulation_parallax_sigmas);

@@ -105,10 +105,20 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
   for (size_t l = 0; l < max_cos_at_level.size(); ++l) {
     max_cos_at_level[l] = std::min(min_cos, std::cos(o.triangulation_parallax_sigmas * kf->pyramid().scale[l] / tri.focal_px));
   }
+  // Widest baseline first: a keypoint matched in several neighbours becomes a point from the
+  // best-conditioned pair. In covisibility order the nearest neighbour comes first, and a
+  // point triangulated there at barely the minimum parallax keeps that short baseline's
+  // depth error (docs/vo.md "Widest baseline first").
+  std::vector<std::pair<double, KeyframeId>> by_baseline;
   for (const KeyframeId nid : kf->BestCovisible(o.triangulation_neighbours)) {
     const auto n = map->keyframe(nid);
-    if (!n || n->bad()) continue;
-    const double baseline = (n->camera_center() - kf_wc.translation()).norm();
+    if (n && !n->bad()) by_baseline.emplace_back((n->camera_center() - kf_wc.translation()).norm(), nid);
+  }
+  if (o.triangulate_widest_baseline_first) {
+    std::stable_sort(by_baseline.begin(), by_baseline.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  }
+  for (const auto& [baseline, nid] : by_baseline) {
+    const auto n = map->keyframe(nid);
     const double depth = MedianSceneDepth(*map, *n);
     if (baseline / (depth > 0.0 ? depth : 1.0) < o.min_baseline_depth_ratio) continue;
     const SE3 n_from_kf = n->cam_from_world() * kf_wc;

@@ -102,6 +102,10 @@ struct VoOptions {
 
   // Local mapping.
   int triangulation_neighbours = 10;   ///< covisible KFs searched for new points
+  /// Search those neighbours widest baseline first, so that a keypoint matched in several
+  /// becomes a point from the best-conditioned pair (docs/vo.md "Widest baseline first").
+  /// false: strongest covisibility first (ORB-SLAM's order, the default before 2026-12-07).
+  bool triangulate_widest_baseline_first = true;
   int fusion_neighbours = 10;
   /// Keyframes optimized by local BA (incl. the new one). ORB-SLAM's 10 was for keyframes
   /// every 2-3 frames; with the 0.2 s spacing they are half as many, and 15 gave back the

@@ -91,6 +91,10 @@ SharpTurnOutcome FlyThroughSharpTurn(const std::shared_ptr<const sim::Simulation
   AckAll acks;
   VoOptions options;
   options.weak_lone_fallback_poses = weak_lone_fallback_poses;
+  // The turn was recorded with the covisibility order of triangulation. With the widest
+  // baseline first this flight's map differs and its frame 511 tracks by the motion model
+  // (no fallback to guard against), so the rule is tested on the map that showed the fault.
+  options.triangulate_widest_baseline_first = false;
   AgentVo vo(static_cast<AgentId>(agent + 1), camera, options, &acks, /*synchronous_mapping=*/true);
   std::vector<Eigen::Vector3d> est, gt;
   std::vector<std::pair<int64_t, size_t>> keyframes;  // frame index, index into est
