@@ -98,12 +98,14 @@ std::string SceneBlock(const SceneResult& r, bool events) {
   }
   for (const AgentScore& a : sc.agents) {
     s += Format("  %s: tracked %.0f %%, %d segment(s), %lld reloc, VO ATE %.3f m (%.2f %% of the %.0f m its keyframes span; flight %.0f m), scale drift %s "
-                "(first 5 m at %s)%s, %d loop(s), revisit links %d (%d false), %zu server keyframes (%zu anchored)\n",
+                "(first 5 m at %s)%s, %d loop(s), revisit links %d (%d false), %s%zu server keyframes (%zu anchored)\n",
                 a.name.c_str(), 100.0 * a.tracked_share, a.segments, static_cast<long long>(a.relocalizations),
                 a.vo_ate_m, a.vo_ate_path_pct, a.vo_path_m, a.path_m, ScaleDrift(a.vo_scale_drift).c_str(),
                 FirstWindowScale(a.vo_first_window_scale).c_str(),
                 a.revisits ? (a.revisit_joined ? ", revisits (joined)" : ", revisits (not joined)") : "", a.loops,
-                a.true_revisit_links, a.false_revisit_links, a.server_keyframes, a.anchored_keyframes);
+                a.true_revisit_links, a.false_revisit_links,
+                a.revisits ? Format("%d own keyframes from its first revisit on, ", a.keyframes_from_revisit).c_str() : "",
+                a.server_keyframes, a.anchored_keyframes);
   }
   return s;
 }
@@ -142,7 +144,8 @@ nlohmann::json SceneJson(const SceneResult& r) {
                              {"ate_path_pct", a.vo_ate_path_pct}, {"scale_drift", a.vo_scale_drift},
                              {"first_window_scale", a.vo_first_window_scale}, {"revisits", a.revisits}, {"loops", a.loops},
                              {"revisit_joined", a.revisit_joined}, {"revisit_links", a.true_revisit_links},
-                             {"false_revisit_links", a.false_revisit_links}, {"server_keyframes", a.server_keyframes},
+                             {"false_revisit_links", a.false_revisit_links}, {"keyframes_from_revisit", a.keyframes_from_revisit},
+                             {"revisit_held", a.revisit_held()}, {"server_keyframes", a.server_keyframes},
                              {"anchored_keyframes", a.anchored_keyframes}});
   }
   return j;
@@ -152,7 +155,7 @@ std::string Report(const std::vector<SceneResult>& results) {
   std::string s = "\n| seed | scene | qualifying pairs fused | median s to fusion | false fusions | loops (false) | "
                   "revisiting agents with a loop | maps | joint / VO ATE | scale spread | wall s |\n"
                   "|---|---|---|---|---|---|---|---|---|---|---|\n";
-  int q = 0, qf = 0, ff = 0, fl = 0, rev = 0, rev_loop = 0, rev_joined = 0, false_links = 0, fused_scenes = 0, good_ate = 0, good_scale = 0;
+  int q = 0, qf = 0, ff = 0, fl = 0, rev = 0, rev_loop = 0, rev_joined = 0, rev_held = 0, false_links = 0, fused_scenes = 0, good_ate = 0, good_scale = 0;
   int fused_parts = 0, good_parts = 0;
   int agents = 0, good_vo = 0, tracked_full = 0;
   std::size_t full_keyframes = 0, anchored_keyframes = 0;
@@ -178,6 +181,7 @@ std::string Report(const std::vector<SceneResult>& results) {
       scene_rev += a.revisits;
       scene_rev_loop += a.revisits && a.loops > 0;
       rev_joined += a.revisits && a.revisit_joined;
+      rev_held += a.revisit_held();
       false_links += a.false_revisit_links;
       ++agents;
       good_vo += a.vo_ate_path_pct >= 0 && a.vo_ate_path_pct <= 1.0 && a.tracked_share > 0.9;
@@ -231,6 +235,8 @@ std::string Report(const std::vector<SceneResult>& results) {
   s += "  revisiting agents with at least one loop: " + Percent(rev_loop, rev) + " [all]\n";
   s += "  revisiting agents whose revisit the map holds once (a true revisit link): " + Percent(rev_joined, rev) +
        Format("; false revisit links: %d\n", false_links);
+  s += "  revisiting agents whose revisit the map holds (a loop, a true revisit link, or every revisit flown in the map it had:\n"
+       "    no keyframe of its own from the first revisit on, tracking >= 99 %): " + Percent(rev_held, rev) + "\n";
   s += "  scenes whose fused maps are at least as accurate as their agents' VO: " + Percent(good_ate, fused_scenes) +
        " [>= 90 %]\n";
   // Each agent's part of a fused map aligned on its own: what fusing did to the map its agent

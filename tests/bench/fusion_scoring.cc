@@ -202,6 +202,10 @@ SceneScore ScoreScene(const sim::Simulation& sim, const sim::OverlapTruth& truth
     if (as.vo_ate_m >= 0 && vo_path > 0) as.vo_ate_path_pct = 100.0 * as.vo_ate_m / vo_path;
     as.revisits = truth.agents()[i].revisits;
     ScoreRevisitLinks(sim, truth, static_cast<int>(i), a, &as);
+    if (as.revisits) {
+      as.keyframes_from_revisit = 0;
+      for (const auto& k : a.vo_keyframes) as.keyframes_from_revisit += Seconds(sim, k.stamp_ns) >= truth.agents()[i].first_revisit_s;
+    }
     as.server_keyframes = a.server_keyframes.size();
     for (const ServerKeyframePose& p : a.server_keyframes) as.anchored_keyframes += !p.in_map;
     s.agents.push_back(as);

@@ -83,6 +83,16 @@ struct AgentScore {
   /// looked for between keyframes that share nothing yet).
   int true_revisit_links = 0, false_revisit_links = 0;
   bool revisit_joined = false;
+  /// Its own VO keyframes from the truth's first revisit on (-1: no revisit). 0 while it
+  /// tracks: it flew every revisit localized in the map it had (its own earlier keyframes or
+  /// other agents' that the server sent), so no keyframe of its own exists there to join or
+  /// to close a loop with, and none is needed.
+  int keyframes_from_revisit = -1;
+  /// A loop, a true revisit link, or every revisit flown in the map it had (above, tracking
+  /// >= 99 % of its frames).
+  bool revisit_held() const {
+    return revisits && (loops > 0 || revisit_joined || (keyframes_from_revisit == 0 && tracked_share >= 0.99));
+  }
   size_t server_keyframes = 0, anchored_keyframes = 0;  ///< registered on the server / of those anchored
 };
 

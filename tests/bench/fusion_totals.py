@@ -50,6 +50,8 @@ def totals(scenes):
             # Older results.jsonl files have no revisit links: counted as not joined.
             t["rev_joined"] += a["revisits"] and a.get("revisit_joined", False)
             t["false_links"] += a.get("false_revisit_links", 0)
+            # Older files have no keyframe count from the revisit on: held by a loop or a link only.
+            t["rev_held"] += a.get("revisit_held", a["revisits"] and (a["loops"] > 0 or a.get("revisit_joined", False)))
             t["good_vo"] += 0 <= a["ate_path_pct"] <= 1.0 and a["tracked"] > 0.9
             t["tracked_full"] += a["tracked"] >= 0.99
         fused = [m for m in s.get("maps", []) if len(m["agents"]) > 1 and m["joint_ate_m"] >= 0 and m["mean_standalone_ate_m"] > 0]
@@ -82,6 +84,8 @@ def print_totals(title, scenes):
     print(f"  revisiting agents with at least one loop: {pct(t['rev_loop'], t['rev'])} [all]")
     print(f"  revisiting agents whose revisit the map holds once (a true revisit link): "
           f"{pct(t['rev_joined'], t['rev'])}; false revisit links: {t['false_links']}")
+    print(f"  revisiting agents whose revisit the map holds (a loop, a true revisit link, or every revisit flown in the map it had:\n"
+          f"    no keyframe of its own from the first revisit on, tracking >= 99 %): {pct(t['rev_held'], t['rev'])}")
     print(f"  scenes whose fused maps are at least as accurate as their agents' VO: "
           f"{pct(t['good_ate'], t['fused_scenes'])} [>= 90 %] (worst joint / VO ATE per scene: median {med(ratios)})")
     print(f"  scenes whose fused maps agree in scale within 2 %: {pct(t['good_scale'], t['fused_scenes'])}"
