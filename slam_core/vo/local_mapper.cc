@@ -109,16 +109,20 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
   // best-conditioned pair. In covisibility order the nearest neighbour comes first, and a
   // point triangulated there at barely the minimum parallax keeps that short baseline's
   // depth error (docs/vo.md "Widest baseline first").
-  std::vector<std::pair<double, KeyframeId>> by_baseline;
+  struct Neighbour {
+    double baseline;
+    KeyframeId id;
+    std::shared_ptr<KeyFrame> kf;
+  };
+  std::vector<Neighbour> neighbours;
   for (const KeyframeId nid : kf->BestCovisible(o.triangulation_neighbours)) {
-    const auto n = map->keyframe(nid);
-    if (n && !n->bad()) by_baseline.emplace_back((n->camera_center() - kf_wc.translation()).norm(), nid);
+    auto n = map->keyframe(nid);
+    if (n && !n->bad()) neighbours.push_back({(n->camera_center() - kf_wc.translation()).norm(), nid, std::move(n)});
   }
   if (o.triangulate_widest_baseline_first) {
-    std::stable_sort(by_baseline.begin(), by_baseline.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::stable_sort(neighbours.begin(), neighbours.end(), [](const Neighbour& a, const Neighbour& b) { return a.baseline > b.baseline; });
   }
-  for (const auto& [baseline, nid] : by_baseline) {
-    const auto n = map->keyframe(nid);
+  for (const auto& [baseline, nid, n] : neighbours) {
     const double depth = MedianSceneDepth(*map, *n);
     if (baseline / (depth > 0.0 ? depth : 1.0) < o.min_baseline_depth_ratio) continue;
     const SE3 n_from_kf = n->cam_from_world() * kf_wc;
