@@ -111,18 +111,18 @@ void LocalMapper::TriangulateNewPoints(Map* map, const std::shared_ptr<KeyFrame>
   // depth error (docs/vo.md "Widest baseline first").
   struct Neighbour {
     double baseline;
-    KeyframeId id;
     std::shared_ptr<KeyFrame> kf;
   };
   std::vector<Neighbour> neighbours;
   for (const KeyframeId nid : kf->BestCovisible(o.triangulation_neighbours)) {
     auto n = map->keyframe(nid);
-    if (n && !n->bad()) neighbours.push_back({(n->camera_center() - kf_wc.translation()).norm(), nid, std::move(n)});
+    if (n && !n->bad()) neighbours.push_back({(n->camera_center() - kf_wc.translation()).norm(), std::move(n)});
   }
   if (o.triangulate_widest_baseline_first) {
     std::stable_sort(neighbours.begin(), neighbours.end(), [](const Neighbour& a, const Neighbour& b) { return a.baseline > b.baseline; });
   }
-  for (const auto& [baseline, nid, n] : neighbours) {
+  for (const auto& [baseline, n] : neighbours) {
+    const KeyframeId nid = n->id();
     const double depth = MedianSceneDepth(*map, *n);
     if (baseline / (depth > 0.0 ? depth : 1.0) < o.min_baseline_depth_ratio) continue;
     const SE3 n_from_kf = n->cam_from_world() * kf_wc;
