@@ -64,6 +64,7 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("init_min_motion_cost_gap", &vo->init_min_motion_cost_gap);
   r.Get("init_max_ambiguous_attempts", &vo->init_max_ambiguous_attempts);
   r.Get("init_homography_min_parallax_deg", &vo->init_homography_min_parallax_deg);
+  r.Get("weak_inlier_drop_ratio", &vo->weak_inlier_drop_ratio);
   r.Get("kf_min_frames", &vo->keyframe.min_frames);
   r.Get("kf_min_interval_s", &vo->keyframe.min_interval_s);
   r.Get("kf_max_frames", &vo->keyframe.max_frames);

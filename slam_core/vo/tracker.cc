@@ -67,9 +67,16 @@ TrackingResult Tracker::Track(VoFrame frame) {
     // Such a weak pose makes no keyframe, and the velocity after it is measured across it,
     // from the frame before. A second fallback in a row is trusted: the motion model is not
     // coming back.
-    const bool weak_pose = shared_->options.weak_lone_fallback_poses &&
-                           state_ == TrackingState::kTracking && !by_motion_model && last_by_motion_model_;
+    // Likewise a frame whose inliers fell to a fraction of the last frame's in one step (a
+    // blurred or badly exposed frame: gen-2043 agent 1 frame 227, 333 -> 121 inliers at a
+    // pose 1.7 deg off): such a drop is also what makes a keyframe 'urgent', so without the
+    // rule the one bad frame became a keyframe. A drop that persists is trusted on the next
+    // frame, which compares with this one.
+    const bool lone_fallback = shared_->options.weak_lone_fallback_poses && !by_motion_model && last_by_motion_model_;
+    const bool inlier_drop = last_inliers_ > 0 && inliers < shared_->options.weak_inlier_drop_ratio * last_inliers_;
+    const bool weak_pose = state_ == TrackingState::kTracking && (lone_fallback || inlier_drop);
     last_by_motion_model_ = by_motion_model;
+    last_inliers_ = inliers;
     weak_poses_ += weak_pose;
     relocalizations_ += state_ == TrackingState::kLost;
     state_ = TrackingState::kTracking;
@@ -103,6 +110,7 @@ TrackingResult Tracker::Track(VoFrame frame) {
   } else {
     state_ = TrackingState::kLost;
     velocity_.reset();
+    last_inliers_ = 0;
     if (++lost_frames_ > shared_->options.lost_frames_before_new_segment) {
       StartNewSegment();
       result.new_segment = true;
@@ -139,6 +147,7 @@ void Tracker::ResetToInitialization() {
   last_frame_.reset();
   before_weak_.reset();
   last_by_motion_model_ = false;
+  last_inliers_ = 0;
   velocity_.reset();
   lost_frames_ = 0;
 }

@@ -102,6 +102,8 @@ class Tracker {
   /// The last tracked frame's pose came from the motion model (not the reference-keyframe
   /// fallback or a relocalization).
   bool last_by_motion_model_ = false;
+  /// Local-map inliers of the last tracked frame (0: none since the last reset or loss).
+  int last_inliers_ = 0;
   /// After a weak pose (see Track): the tracked frame before it, which the next velocity is
   /// measured from.
   struct MotionBase {

@@ -22,6 +22,7 @@ std::string VoOptions::Validate() const {
   if (!(max_motion_extrapolation >= 1.0)) return "max_motion_extrapolation must be >= 1";
   if (min_inliers_frame < 3) return "min_inliers_frame must be >= 3";
   if (min_inliers_local_map < min_inliers_frame) return "min_inliers_local_map must be >= min_inliers_frame";
+  if (!(weak_inlier_drop_ratio >= 0.0 && weak_inlier_drop_ratio < 1.0)) return "weak_inlier_drop_ratio must be in [0, 1)";
   if (auto e = keyframe.Validate(); !e.empty()) return e;
   if (local_ba_window < 2) return "local_ba_window must be >= 2";
   if (local_ba_max_fixed < 1) return "local_ba_max_fixed must be >= 1";

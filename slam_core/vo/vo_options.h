@@ -78,6 +78,9 @@ struct VoOptions {
   /// fallback pose is weak: it makes no keyframe and the velocity after it is measured
   /// across it (Tracker::Track; gen-2043: a keyframe 1.3 m off from one such frame).
   bool weak_lone_fallback_poses = true;
+  /// A tracked frame with fewer local-map inliers than this fraction of the last frame's is
+  /// weak too (no keyframe from it, velocity measured across it); 0 turns the rule off.
+  double weak_inlier_drop_ratio = 0.5;
   int local_map_max_keyframes = 80;    ///< cap on keyframes whose points are tracked
   double min_view_cos = 0.5;           ///< points seen at > 60 deg from their mean normal skipped
 

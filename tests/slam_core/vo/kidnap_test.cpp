@@ -84,17 +84,11 @@ struct SharpTurnOutcome {
 };
 
 SharpTurnOutcome FlyThroughSharpTurn(const std::shared_ptr<const sim::Simulation>& sim, int agent, int64_t frames,
-                                     bool weak_lone_fallback_poses) {
+                                     const VoOptions& options) {
   SharpTurnOutcome out;
   sim::SimFrameSource source(sim, agent, 0, 1, frames);
   std::shared_ptr<const CameraModel> camera(MakeCamera(source.intrinsics()));
   AckAll acks;
-  VoOptions options;
-  options.weak_lone_fallback_poses = weak_lone_fallback_poses;
-  // The turn was recorded with the covisibility order of triangulation. With the widest
-  // baseline first this flight's map differs and its frame 511 tracks by the motion model
-  // (no fallback to guard against), so the rule is tested on the map that showed the fault.
-  options.triangulate_widest_baseline_first = false;
   AgentVo vo(static_cast<AgentId>(agent + 1), camera, options, &acks, /*synchronous_mapping=*/true);
   std::vector<Eigen::Vector3d> est, gt;
   std::vector<std::pair<int64_t, size_t>> keyframes;  // frame index, index into est
@@ -180,7 +174,14 @@ TEST(VoSharpTurn, ALoneFallbackPoseMakesNoKeyframe) {
   const auto sim = testing::LoadSimulation("gen:2043", &error);
   ASSERT_NE(sim, nullptr) << error;
   for (const bool weak : {false, true}) {
-    const SharpTurnOutcome o = FlyThroughSharpTurn(sim, 1, kSharpTurnFrames, weak);
+    VoOptions options;
+    options.weak_lone_fallback_poses = weak;
+    options.weak_inlier_drop_ratio = 0.0;  // the other weak-pose rule, tested below
+    // The turn was recorded with the covisibility order of triangulation. With the widest
+    // baseline first this flight's map differs and its frame 511 tracks by the motion model
+    // (no fallback to guard against), so the rule is tested on the map that showed the fault.
+    options.triangulate_widest_baseline_first = false;
+    const SharpTurnOutcome o = FlyThroughSharpTurn(sim, 1, kSharpTurnFrames, options);
     ASSERT_TRUE(o.error.empty()) << o.error;
     std::printf("[sharp turn, weak poses %s] %lld keyframes, worst made %.3f m off (frame %lld); frame ATE %.4f m; "
                 "weak poses %lld\n",
@@ -195,6 +196,32 @@ TEST(VoSharpTurn, ALoneFallbackPoseMakesNoKeyframe) {
       EXPECT_GE(o.weak_poses, 1);
       // The frame itself keeps its pose (1.3 m off: the frame ATE is 0.058 m either way);
       // only the map is spared it.
+    }
+  }
+}
+
+TEST(VoSharpTurn, ASuddenInlierDropMakesNoKeyframe) {
+  // The same flight with today's triangulation order: at frame 227 the local-map inliers
+  // fall from 333 to 121 for one frame, at a pose 1.7 deg off (1 s motion); the drop made
+  // the frame an 'urgent' keyframe 0.19 m off. With the drop rule it makes none and the
+  // next frame (371 inliers) is back on track.
+  std::string error;
+  const auto sim = testing::LoadSimulation("gen:2043", &error);
+  ASSERT_NE(sim, nullptr) << error;
+  for (const double ratio : {0.0, VoOptions{}.weak_inlier_drop_ratio}) {
+    VoOptions options;
+    options.weak_inlier_drop_ratio = ratio;
+    const SharpTurnOutcome o = FlyThroughSharpTurn(sim, 1, 260, options);
+    ASSERT_TRUE(o.error.empty()) << o.error;
+    std::printf("[inlier drop, ratio %.2f] %lld keyframes, worst made %.3f m off (frame %lld); frame ATE %.4f m; "
+                "weak poses %lld\n",
+                ratio, static_cast<long long>(o.keyframes), o.worst_keyframe_error_m,
+                static_cast<long long>(o.worst_keyframe_index), o.frame_ate_m, static_cast<long long>(o.weak_poses));
+    if (ratio == 0.0) {
+      EXPECT_GT(o.worst_keyframe_error_m, 0.15);  // the premise: the drop's frame is a keyframe
+    } else {
+      EXPECT_LT(o.worst_keyframe_error_m, 0.1);
+      EXPECT_GE(o.weak_poses, 1);
     }
   }
 }
