@@ -49,7 +49,8 @@ class Tracker {
   int segments_started() const { return segments_started_; }
   int resets() const { return resets_; }
   int64_t relocalizations() const { return relocalizations_; }
-  /// Frames whose lone fallback pose was treated as weak (VoOptions::weak_lone_fallback_poses).
+  /// Frames treated as weak: a lone fallback pose or a sudden inlier drop (VoOptions::weak_lone_fallback_poses,
+  /// weak_inlier_drop_ratio).
   int64_t weak_poses() const { return weak_poses_; }
   int64_t road_like_init_attempts() const { return initializer_.road_like_attempts(); }
   /// Keyframes made per KeyframeReason (index = enum value).
