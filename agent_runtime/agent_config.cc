@@ -65,12 +65,18 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("init_max_ambiguous_attempts", &vo->init_max_ambiguous_attempts);
   r.Get("init_homography_min_parallax_deg", &vo->init_homography_min_parallax_deg);
   r.Get("weak_inlier_drop_ratio", &vo->weak_inlier_drop_ratio);
+  std::string kf_reference;
+  r.Get("kf_reference", &kf_reference);
+  if (!kf_reference.empty() && !ParseKeyframeReference(kf_reference, &vo->kf_reference)) {
+    r.Fail("kf_reference", "must be last, most_covisible or either (got '" + kf_reference + "')");
+  }
   r.Get("kf_min_frames", &vo->keyframe.min_frames);
   r.Get("kf_min_interval_s", &vo->keyframe.min_interval_s);
   r.Get("kf_max_frames", &vo->keyframe.max_frames);
   r.Get("kf_tracked_ratio", &vo->keyframe.tracked_ratio);
   r.Get("kf_urgent_ratio", &vo->keyframe.urgent_ratio);
   r.Get("kf_urgent_inliers", &vo->keyframe.urgent_inliers);
+  r.Get("kf_inlier_drop_ratio", &vo->keyframe.inlier_drop_ratio);
   r.Get("kf_coverage_ratio", &vo->keyframe.coverage_ratio);
   r.Get("kf_baseline_depth_ratio", &vo->keyframe.baseline_depth_ratio);
   r.Get("kf_max_interval_s", &vo->keyframe.max_interval_s);

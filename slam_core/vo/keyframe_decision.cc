@@ -17,6 +17,7 @@ std::string KeyframeDecisionOptions::Validate() const {
   if (baseline_depth_ratio < 0) return "kf_baseline_depth_ratio must be >= 0";
   if (max_interval_s < 0) return "kf_max_interval_s must be >= 0";
   if (min_inliers < 0) return "kf_min_inliers must be >= 0";
+  if (!(inlier_drop_ratio >= 0 && inlier_drop_ratio < 1)) return "kf_inlier_drop_ratio must be in [0, 1)";
   return "";
 }
 
@@ -28,6 +29,7 @@ const char* KeyframeReasonName(KeyframeReason reason) {
     case KeyframeReason::kBaseline: return "baseline";
     case KeyframeReason::kInterval: return "interval";
     case KeyframeReason::kUrgent: return "urgent";
+    case KeyframeReason::kInlierDrop: return "inlier-drop";
   }
   return "?";
 }
@@ -42,6 +44,9 @@ KeyframeReason DecideKeyframe(const KeyframeDecisionOptions& o, const KeyframeDe
   if (in.seconds_since_kf + 1e-3 < o.min_interval_s) return KeyframeReason::kNone;
   if (!in.mapper_idle && in.frames_since_kf < o.max_frames) return KeyframeReason::kNone;
   if (ratio < o.tracked_ratio) return KeyframeReason::kTrackedRatio;
+  if (in.reference_inliers > 0 && in.inliers < o.inlier_drop_ratio * in.reference_inliers) {
+    return KeyframeReason::kInlierDrop;
+  }
   if (o.coverage_ratio > 0 && in.reference_coverage > 0 && in.coverage < o.coverage_ratio * in.reference_coverage) {
     return KeyframeReason::kCoverage;
   }

@@ -5,7 +5,8 @@
 //    (new image area without map points: turning, or points leaving at the border),
 //  * the camera moved far enough from the reference keyframe for well-conditioned new
 //    points (baseline / median scene depth), or
-//  * it has been long since the last keyframe and the view changed at all;
+//  * it has been long since the last keyframe and the view changed at all, or
+//  * the frame tracks far fewer points than the last keyframe's frame did (inlier drop);
 // and only when local mapping can take it (idle, or it waited kf_max_frames), except when
 // tracking is about to break (urgent: few points left), where a keyframe comes at once.
 // Pure: the tracker measures, this decides (unit-testable without images).
@@ -38,6 +39,12 @@ struct KeyframeDecisionOptions {
   double baseline_depth_ratio = 0.0;  ///< need a KF above this baseline / median depth (0: off)
   double max_interval_s = 0.0;   ///< need a KF after this long if anything changed (0: off)
   int min_inliers = 15;          ///< never a KF from a frame tracking fewer points
+  /// Need a KF when tracking fewer points than this share of what the last keyframe's frame
+  /// tracked (0: off). Independent of which points are well seen: with map sharing a frame
+  /// may track mostly another agent's points, while the reference keyframe's well-seen count
+  /// stays below the inliers and the tracked ratio never fires (issue 27, seed 2112: no
+  /// keyframe for 123 frames while the inliers fell from 239 to 34, then lost).
+  double inlier_drop_ratio = 0.5;
 
   std::string Validate() const;
 };
@@ -48,14 +55,15 @@ struct KeyframeDecisionInput {
   double seconds_since_kf = 0;
   int inliers = 0;              ///< tracked points of the frame
   int reference_points = 0;     ///< the reference KF's points seen by >= 3 KFs (ORB-SLAM)
+  int reference_inliers = 0;    ///< points the last keyframe's frame tracked (0: unknown)
   double coverage = 0;          ///< share of image cells with a tracked point, of cells with a keypoint
   double reference_coverage = 0;  ///< the same, measured when the reference KF was made
   double baseline_over_depth = 0;  ///< distance to the reference KF / its median point depth
   bool mapper_idle = true;
 };
 
-enum class KeyframeReason { kNone, kTrackedRatio, kCoverage, kBaseline, kInterval, kUrgent };
-constexpr size_t kNumKeyframeReasons = 6;
+enum class KeyframeReason { kNone, kTrackedRatio, kCoverage, kBaseline, kInterval, kUrgent, kInlierDrop };
+constexpr size_t kNumKeyframeReasons = 7;
 /// Keyframes made per reason (index = KeyframeReason value).
 using KeyframeReasonCounts = std::array<int64_t, kNumKeyframeReasons>;
 const char* KeyframeReasonName(KeyframeReason reason);

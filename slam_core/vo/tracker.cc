@@ -98,6 +98,7 @@ TrackingResult Tracker::Track(VoFrame frame) {
         why != KeyframeReason::kNone) {
       ++keyframe_reasons_[static_cast<int>(why)];
       CreateKeyframe(frame);
+      reference_inliers_ = inliers;
       result.new_keyframe = true;
     }
     frame.DiscardOutliers();
@@ -126,6 +127,7 @@ void Tracker::OnInitialized(const InitializationResult& init) {
   state_ = TrackingState::kTracking;
   reference_kf_ = init.kf2;
   reference_tracked_ = init.num_points;
+  reference_inliers_ = 0;  // the initial pair's points: no tracked frame yet
   velocity_.reset();
   lost_frames_ = 0;
   sink_(KeyframeJob{map_, init.kf1, {}, true});
@@ -144,6 +146,8 @@ void Tracker::ResetToInitialization() {
   initializer_.Reset();
   map_.reset();
   reference_kf_.reset();
+  covisible_reference_.reset();
+  reference_inliers_ = 0;
   last_frame_.reset();
   before_weak_.reset();
   last_by_motion_model_ = false;
@@ -335,6 +339,7 @@ std::vector<std::shared_ptr<KeyFrame>> Tracker::LocalKeyframes(const VoFrame& f)
 
 int Tracker::TrackLocalMap(VoFrame* f) {
   const auto local_kfs = LocalKeyframes(*f);
+  covisible_reference_ = local_kfs.empty() ? nullptr : local_kfs.front();
   std::unordered_set<MapPointId> already;
   for (size_t i = 0; i < f->size(); ++i) {
     if (f->map_points[i]) already.insert(f->map_points[i]->id());
@@ -406,22 +411,31 @@ KeyframeReason Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
   // the reference, the count at creation. A measure of the overlap with the reference alone
   // (its points tracked / its best overlap since) was tried: it made 2-3x fewer keyframes
   // but doubled hall3's ATE (docs/vo.md, keyframe economy).
-  int ref_points = reference_tracked_;
-  if (reference_kf_ && map_->keyframe(reference_kf_->id())) {
-    const int min_obs = map_->num_keyframes() <= 2 ? 2 : 3;
+  const int min_obs = map_->num_keyframes() <= 2 ? 2 : 3;
+  auto well_seen = [&](const std::shared_ptr<KeyFrame>& kf) {
     int n = 0;
-    for (const MapPointId id : reference_kf_->map_points()) {
+    for (const MapPointId id : kf->map_points()) {
       if (!id.valid()) continue;
       const auto mp = map_->map_point(id);
       n += mp && mp->num_observations() >= min_obs;
     }
-    ref_points = n;
+    return n;
+  };
+  const KeyframeReference mode = shared_->options.kf_reference;
+  int ref_points = reference_tracked_;
+  if (mode != KeyframeReference::kMostCovisible && reference_kf_ && map_->keyframe(reference_kf_->id())) {
+    ref_points = well_seen(reference_kf_);
+  }
+  if (mode != KeyframeReference::kLast && covisible_reference_ && map_->keyframe(covisible_reference_->id())) {
+    const int n = well_seen(covisible_reference_);
+    ref_points = mode == KeyframeReference::kMostCovisible ? n : std::max(ref_points, n);
   }
   KeyframeDecisionInput in;
   in.frames_since_kf = f.index - last_kf_frame_index_;
   in.seconds_since_kf = 1e-9 * static_cast<double>(f.stamp_ns - last_kf_stamp_ns_);
   in.inliers = inliers;
   in.reference_points = ref_points;
+  in.reference_inliers = reference_inliers_;
   if (reference_coverage_ > 0) in.coverage = ImageCoverage(f);
   in.reference_coverage = reference_coverage_;
   if (reference_median_depth_ > 0) in.baseline_over_depth = BaselineOverDepth(f);

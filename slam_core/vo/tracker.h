@@ -95,6 +95,9 @@ class Tracker {
   int64_t velocity_dt_ns_ = 0;   ///< stamp(k) - stamp(k-1) of that motion
   std::shared_ptr<KeyFrame> reference_kf_;
   int reference_tracked_ = 0;      ///< points the reference keyframe tracked when created
+  int reference_inliers_ = 0;      ///< local-map inliers of the frame it was made from (0: none)
+  /// The local keyframe sharing the most points with the last frame (LocalKeyframes' first).
+  std::shared_ptr<KeyFrame> covisible_reference_;
   double reference_coverage_ = 0;  ///< its image coverage (ImageCoverage) when created
   double reference_median_depth_ = 0;  ///< median depth of its tracked points when created
   int64_t last_kf_frame_index_ = 0;

@@ -1,5 +1,7 @@
 #include "slam_core/vo/vo_options.h"
 
+#include <utility>
+
 namespace ccm {
 
 std::string VoOptions::Validate() const {
@@ -45,6 +47,20 @@ std::string VoOptions::Validate() const {
   if (reloc_covisible_keyframes < 0) return "reloc_covisible_keyframes must be >= 0";
   if (lost_frames_before_new_segment < 1) return "lost_frames_before_new_segment must be >= 1";
   return "";
+}
+
+bool ParseKeyframeReference(const std::string& text, KeyframeReference* out) {
+  static const std::pair<const char*, KeyframeReference> kNames[] = {
+      {"last", KeyframeReference::kLast},
+      {"most_covisible", KeyframeReference::kMostCovisible},
+      {"either", KeyframeReference::kEither}};
+  for (const auto& [name, value] : kNames) {
+    if (text == name) {
+      *out = value;
+      return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace ccm

@@ -11,6 +11,16 @@
 
 namespace ccm {
 
+/// Which keyframe's well-seen points (>= 3 observations) the keyframe rule measures the
+/// frame's inliers against (VoOptions::kf_reference).
+enum class KeyframeReference {
+  kLast,           ///< the last keyframe made
+  kMostCovisible,  ///< the local keyframe sharing the most points with the frame (ORB-SLAM)
+  kEither,         ///< the larger count of the two: a keyframe when either would ask for one
+};
+/// "last", "most_covisible", "either"; false for anything else.
+bool ParseKeyframeReference(const std::string& text, KeyframeReference* out);
+
 struct VoOptions {
   OrbExtractorOptions orb;
   /// Features to extract while initializing (ORB-SLAM doubles them for mono init). Two-view
@@ -81,6 +91,11 @@ struct VoOptions {
   /// A tracked frame with fewer local-map inliers than this fraction of the last frame's is
   /// weak too (no keyframe from it, velocity measured across it); 0 turns the rule off.
   double weak_inlier_drop_ratio = 0.5;
+  /// The keyframe rule's reference (its points seen by >= 3 keyframes against the frame's
+  /// inliers): the local keyframe sharing the most points with the frame (ORB-SLAM's, per
+  /// frame) instead of the last keyframe made. With map sharing the frame may track mostly
+  /// another agent's points, which the last keyframe's count does not reflect.
+  KeyframeReference kf_reference = KeyframeReference::kLast;
   int local_map_max_keyframes = 80;    ///< cap on keyframes whose points are tracked
   double min_view_cos = 0.5;           ///< points seen at > 60 deg from their mean normal skipped
 

@@ -212,6 +212,13 @@ int main(int argc, char** argv) {
                  "VO start: the two-view motion must beat every rival >= 30 deg away by this cost (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--kf-reference", replay.vo.kf_reference,
+                 "VO keyframe rule's reference: 0 the last keyframe, 1 the most covisible, 2 either")
+      ->check(CLI::Range(0, 2));
+  app.add_option("--kf-inlier-drop", replay.vo.keyframe.inlier_drop_ratio,
+                 "VO keyframe rule: a keyframe below this share of the last keyframe's inliers (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.99));
   std::string ba_solver = ccm::opt::BaLinearSolverName(replay.server.optimization.global_ba_solver);
   app.add_option("--ba-min-parallax", replay.server.optimization.global_ba_min_parallax_deg,
                  "points seen under less parallax [deg] are held in the server's global BA (0: none)")

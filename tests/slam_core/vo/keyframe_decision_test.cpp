@@ -64,6 +64,28 @@ TEST(KeyframeDecision, OptionalCriteriaAreOffByDefault) {
   EXPECT_EQ(DecideKeyframe(KeyframeDecisionOptions{}, in), KeyframeReason::kNone);
 }
 
+TEST(KeyframeDecision, FarFewerPointsThanAtTheLastKeyframeNeedOne) {
+  // Seed 2112 with map sharing: the reference keyframe has 44 well-seen points while the frame
+  // tracks 100 (mostly another agent's), so the tracked ratio (> 1) never fires; the frame
+  // tracked 239 when the last keyframe was made.
+  KeyframeDecisionInput in = Steady();
+  in.reference_points = 44;
+  in.inliers = 130;
+  in.reference_inliers = 239;
+  const KeyframeDecisionOptions o;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone) << "54 % of 239: not yet";
+  in.inliers = 100;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kInlierDrop);
+  in.reference_inliers = 0;  // unknown (right after initialization)
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+  in.reference_inliers = 239;
+  KeyframeDecisionOptions off;
+  off.inlier_drop_ratio = 0;
+  EXPECT_EQ(DecideKeyframe(off, in), KeyframeReason::kNone);
+  in.mapper_idle = false;  // not urgent: waits for mapping like the tracked ratio
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+}
+
 TEST(KeyframeDecision, BusyMappingDefersAllButUrgentKeyframes) {
   const KeyframeDecisionOptions o = AllOn();
   KeyframeDecisionInput in = Steady();
@@ -141,6 +163,9 @@ TEST(KeyframeDecision, ValidateRejectsInconsistentOptions) {
   o = {};
   o.coverage_ratio = 1.5;
   EXPECT_NE(o.Validate(), "");
+  o = {};
+  o.inlier_drop_ratio = 1.0;
+  EXPECT_NE(o.Validate().find("kf_inlier_drop_ratio"), std::string::npos);
 }
 
 }  // namespace
