@@ -410,7 +410,10 @@ KeyframeReason Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
   // enough keyframes (2 while the map has two keyframes, else 3); until mapping processed
   // the reference, the count at creation. A measure of the overlap with the reference alone
   // (its points tracked / its best overlap since) was tried: it made 2-3x fewer keyframes
-  // but doubled hall3's ATE (docs/vo.md, keyframe economy).
+  // but doubled hall3's ATE (docs/vo.md, keyframe economy). The reference is our last
+  // keyframe by default; ORB-SLAM's per-frame most covisible one (kf_reference) lost an agent
+  // on the tuning scenes, so a stale count is caught by the inlier-drop criterion instead
+  // (docs/vo.md, "Keyframes in a shared map").
   const int min_obs = map_->num_keyframes() <= 2 ? 2 : 3;
   auto well_seen = [&](const std::shared_ptr<KeyFrame>& kf) {
     int n = 0;
