@@ -92,9 +92,9 @@ struct VoOptions {
   /// weak too (no keyframe from it, velocity measured across it); 0 turns the rule off.
   double weak_inlier_drop_ratio = 0.5;
   /// The keyframe rule's reference (its points seen by >= 3 keyframes against the frame's
-  /// inliers): the local keyframe sharing the most points with the frame (ORB-SLAM's, per
-  /// frame) instead of the last keyframe made. With map sharing the frame may track mostly
-  /// another agent's points, which the last keyframe's count does not reflect.
+  /// inliers). ORB-SLAM's per-frame most covisible keyframe fixed a shared-map fault but lost
+  /// another agent on the tuning scenes, so the default stays the last keyframe and a stale
+  /// count is caught by keyframe.inlier_drop_ratio (docs/vo.md, "Keyframes in a shared map").
   KeyframeReference kf_reference = KeyframeReference::kLast;
   int local_map_max_keyframes = 80;    ///< cap on keyframes whose points are tracked
   double min_view_cos = 0.5;           ///< points seen at > 60 deg from their mean normal skipped

@@ -212,9 +212,12 @@ int main(int argc, char** argv) {
                  "VO start: the two-view motion must beat every rival >= 30 deg away by this cost (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
-  app.add_option("--kf-reference", replay.vo.kf_reference,
-                 "VO keyframe rule's reference: 0 the last keyframe, 1 the most covisible, 2 either")
-      ->check(CLI::Range(0, 2));
+  std::string kf_reference = "last";
+  app.add_option("--kf-reference", kf_reference, "VO keyframe rule's reference: last, most_covisible or either")
+      ->capture_default_str()
+      ->check([&](const std::string& text) {
+        return ccm::ParseKeyframeReference(text, &replay.vo.kf_reference) ? "" : "must be last, most_covisible or either";
+      });
   app.add_option("--kf-inlier-drop", replay.vo.keyframe.inlier_drop_ratio,
                  "VO keyframe rule: a keyframe below this share of the last keyframe's inliers (0: off)")
       ->capture_default_str()
