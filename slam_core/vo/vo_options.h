@@ -133,8 +133,12 @@ struct VoOptions {
   double redundant_kf_ratio = 0.9;     ///< KF culled when this share of its points is seen 3x
   double min_baseline_depth_ratio = 0.01;  ///< skip triangulation pairs below this baseline
   /// New points need at least this ray angle. Near the threshold, noisy rays that happen
-  /// to look more parallel are rejected and more convergent ones kept, so too low a value
-  /// biases depths short and shrinks the map scale (seen at 1.15 deg on the simulator).
+  /// to look more parallel are rejected and more convergent ones kept, which biases those
+  /// depths short (seen at 1.15 deg on the simulator). ORB-SLAM's 1.15 lost an agent in a
+  /// 72 deg/s turn at 0.9 m/s (issue 27, seed 2117: six keyframes each matched 100-300
+  /// unmapped keypoints below it); 0.8 holds it and improves most tuning agents' VO, but
+  /// loses another agent and makes the fused maps worse (docs/vo.md "Points for a fast
+  /// turn"), so the default stays.
   double min_triangulation_parallax_deg = 1.15;
   /// ... and at least this many times the angular noise of the coarser keypoint (its
   /// pyramid scale in pixels over the focal length). 0: off.

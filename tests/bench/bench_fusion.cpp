@@ -222,6 +222,9 @@ int main(int argc, char** argv) {
                  "VO keyframe rule: a keyframe below this share of the last keyframe's inliers (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.99));
+  app.add_option("--min-parallax", replay.vo.min_triangulation_parallax_deg, "VO: ray angle new points need [deg]")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 10.0));
   std::string ba_solver = ccm::opt::BaLinearSolverName(replay.server.optimization.global_ba_solver);
   app.add_option("--ba-min-parallax", replay.server.optimization.global_ba_min_parallax_deg,
                  "points seen under less parallax [deg] are held in the server's global BA (0: none)")
