@@ -77,6 +77,7 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("kf_urgent_ratio", &vo->keyframe.urgent_ratio);
   r.Get("kf_urgent_inliers", &vo->keyframe.urgent_inliers);
   r.Get("kf_inlier_drop_ratio", &vo->keyframe.inlier_drop_ratio);
+  r.Get("kf_turn_fov_share", &vo->keyframe.turn_fov_share);
   r.Get("kf_coverage_ratio", &vo->keyframe.coverage_ratio);
   r.Get("kf_baseline_depth_ratio", &vo->keyframe.baseline_depth_ratio);
   r.Get("kf_max_interval_s", &vo->keyframe.max_interval_s);

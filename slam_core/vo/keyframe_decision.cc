@@ -18,6 +18,7 @@ std::string KeyframeDecisionOptions::Validate() const {
   if (max_interval_s < 0) return "kf_max_interval_s must be >= 0";
   if (min_inliers < 0) return "kf_min_inliers must be >= 0";
   if (!(inlier_drop_ratio >= 0 && inlier_drop_ratio < 1)) return "kf_inlier_drop_ratio must be in [0, 1)";
+  if (!(turn_fov_share >= 0 && turn_fov_share <= 10)) return "kf_turn_fov_share must be in [0, 10]";
   return "";
 }
 
@@ -30,6 +31,7 @@ const char* KeyframeReasonName(KeyframeReason reason) {
     case KeyframeReason::kInterval: return "interval";
     case KeyframeReason::kUrgent: return "urgent";
     case KeyframeReason::kInlierDrop: return "inlier-drop";
+    case KeyframeReason::kTurn: return "turn";
   }
   return "?";
 }
@@ -39,6 +41,9 @@ KeyframeReason DecideKeyframe(const KeyframeDecisionOptions& o, const KeyframeDe
   const double ratio = in.reference_points > 0 ? static_cast<double>(in.inliers) / in.reference_points : 0.0;
   // About to lose the map: new points now, whatever mapping is doing.
   if (ratio < o.urgent_ratio || in.inliers < o.urgent_inliers) return KeyframeReason::kUrgent;
+  if (o.turn_fov_share > 0 && in.turn_fov_share >= o.turn_fov_share && ratio < o.tracked_ratio) {
+    return KeyframeReason::kTurn;
+  }
   if (in.frames_since_kf < o.min_frames) return KeyframeReason::kNone;
   // 1 ms slack: stamps of a 20 Hz camera 4 frames apart are 0.2 s give or take rounding.
   if (in.seconds_since_kf + 1e-3 < o.min_interval_s) return KeyframeReason::kNone;

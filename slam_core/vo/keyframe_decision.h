@@ -7,6 +7,7 @@
 //    points (baseline / median scene depth), or
 //  * it has been long since the last keyframe and the view changed at all, or
 //  * the frame tracks far fewer points than the last keyframe's frame did (inlier drop);
+//  * (at once) the camera turned a good part of its field of view and points are leaving;
 // and only when local mapping can take it (idle, or it waited kf_max_frames), except when
 // tracking is about to break (urgent: few points left), where a keyframe comes at once.
 // Pure: the tracker measures, this decides (unit-testable without images).
@@ -45,6 +46,15 @@ struct KeyframeDecisionOptions {
   /// stays below the inliers and the tracked ratio never fires (issue 27, seed 2112: no
   /// keyframe for 123 frames while the inliers fell from 239 to 34, then lost).
   double inlier_drop_ratio = 0.5;
+  /// A keyframe at once (like urgent) when the tracked ratio asks for one and the camera has
+  /// turned this share of its horizontal field of view since the reference keyframe (0:
+  /// off). A fast turn sweeps the view past the map faster than min_interval_s lets new
+  /// points in: issue 27's seed 2120 agent 2 (VGA, 20 Hz) yawed at 137 deg/s with a
+  /// keyframe every 3-4 frames, each frame losing a quarter of its points, and was lost;
+  /// 0.2 holds it. Off by default until measured on more unseen scenes (docs/vo.md "A
+  /// keyframe at once in a fast turn": neutral on the agents' VO, inert on hall3 and the
+  /// real sequences).
+  double turn_fov_share = 0.0;
 
   std::string Validate() const;
 };
@@ -59,11 +69,12 @@ struct KeyframeDecisionInput {
   double coverage = 0;          ///< share of image cells with a tracked point, of cells with a keypoint
   double reference_coverage = 0;  ///< the same, measured when the reference KF was made
   double baseline_over_depth = 0;  ///< distance to the reference KF / its median point depth
+  double turn_fov_share = 0;    ///< rotation since the reference KF / horizontal field of view
   bool mapper_idle = true;
 };
 
-enum class KeyframeReason { kNone, kTrackedRatio, kCoverage, kBaseline, kInterval, kUrgent, kInlierDrop };
-constexpr size_t kNumKeyframeReasons = 7;
+enum class KeyframeReason { kNone, kTrackedRatio, kCoverage, kBaseline, kInterval, kUrgent, kInlierDrop, kTurn };
+constexpr size_t kNumKeyframeReasons = 8;
 /// Keyframes made per reason (index = KeyframeReason value).
 using KeyframeReasonCounts = std::array<int64_t, kNumKeyframeReasons>;
 const char* KeyframeReasonName(KeyframeReason reason);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -20,8 +21,28 @@ const char* TrackingStateName(TrackingState state) {
   return "?";
 }
 
+namespace {
+
+// Angle between the rays of the left and right edge pixels of the middle row (pinhole and
+// fisheye alike); 0 if the camera cannot unproject them.
+double HorizontalFov(const CameraModel& camera) {
+  const CameraIntrinsics& k = camera.intrinsics();
+  Eigen::Vector3d left, right;
+  if (!camera.Unproject(Eigen::Vector2d(0.0, k.cy), &left) ||
+      !camera.Unproject(Eigen::Vector2d(k.width_px - 1.0, k.cy), &right)) {
+    return 0.0;
+  }
+  return std::acos(std::clamp(left.normalized().dot(right.normalized()), -1.0, 1.0));
+}
+
+}  // namespace
+
 Tracker::Tracker(VoShared* shared, KeyframeSink sink, std::function<bool()> mapper_idle)
-    : shared_(shared), sink_(std::move(sink)), mapper_idle_(std::move(mapper_idle)), initializer_(shared) {}
+    : shared_(shared),
+      sink_(std::move(sink)),
+      mapper_idle_(std::move(mapper_idle)),
+      initializer_(shared),
+      horizontal_fov_rad_(shared->camera ? HorizontalFov(*shared->camera) : 0.0) {}
 
 TrackingResult Tracker::Track(VoFrame frame) {
   TrackingResult result;
@@ -442,6 +463,10 @@ KeyframeReason Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
   if (reference_coverage_ > 0) in.coverage = ImageCoverage(f);
   in.reference_coverage = reference_coverage_;
   if (reference_median_depth_ > 0) in.baseline_over_depth = BaselineOverDepth(f);
+  if (reference_kf_ && horizontal_fov_rad_ > 0) {
+    const Eigen::AngleAxisd turn(reference_kf_->world_from_cam().rotation().inverse() * f.world_from_cam.rotation());
+    in.turn_fov_share = turn.angle() / horizontal_fov_rad_;
+  }
   in.mapper_idle = mapper_idle_();
   return DecideKeyframe(shared_->options.keyframe, in);
 }

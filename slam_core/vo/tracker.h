@@ -100,6 +100,7 @@ class Tracker {
   std::shared_ptr<KeyFrame> covisible_reference_;
   double reference_coverage_ = 0;  ///< its image coverage (ImageCoverage) when created
   double reference_median_depth_ = 0;  ///< median depth of its tracked points when created
+  double horizontal_fov_rad_ = 0;      ///< for the keyframe rule of fast turns
   int64_t last_kf_frame_index_ = 0;
   int64_t last_kf_stamp_ns_ = 0;
   int64_t last_reloc_frame_index_ = -1000;

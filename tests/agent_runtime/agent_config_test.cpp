@@ -151,7 +151,7 @@ TEST(AgentConfig, OrbSlamKeyframeRuleCanBeRestored) {
   ASSERT_GT(c.vo.keyframe.min_interval_s, 0.0) << "the default spaces keyframes";
   ASSERT_TRUE(LoadAgentConfig(Write("orbslam.yaml", "vo:\n  kf_min_interval_s: 0\n  kf_urgent_ratio: 0\n"
                                                     "  local_ba_window: 10\n  kf_reference: most_covisible\n"
-                                                    "  kf_inlier_drop_ratio: 0\n"),
+                                                    "  kf_inlier_drop_ratio: 0\n  kf_turn_fov_share: 0\n"),
                               &c, &error))
       << error;
   EXPECT_EQ(c.vo.keyframe.min_interval_s, 0.0);
@@ -159,11 +159,15 @@ TEST(AgentConfig, OrbSlamKeyframeRuleCanBeRestored) {
   EXPECT_EQ(c.vo.local_ba_window, 10);
   EXPECT_EQ(c.vo.kf_reference, KeyframeReference::kMostCovisible);
   EXPECT_EQ(c.vo.keyframe.inlier_drop_ratio, 0.0);
+  EXPECT_EQ(c.vo.keyframe.turn_fov_share, 0.0);
   EXPECT_EQ(c.vo.keyframe.tracked_ratio, AgentConfig().vo.keyframe.tracked_ratio);
   AgentConfig d;
   EXPECT_FALSE(LoadAgentConfig(Write("ref.yaml", "vo:\n  kf_reference: newest\n"), &d, &error));
   EXPECT_NE(error.find("kf_reference"), std::string::npos) << error;
   EXPECT_NE(error.find("most_covisible"), std::string::npos) << error;
+  AgentConfig t;
+  EXPECT_FALSE(LoadAgentConfig(Write("turn.yaml", "vo:\n  kf_turn_fov_share: -0.1\n"), &t, &error));
+  EXPECT_NE(error.find("kf_turn_fov_share"), std::string::npos) << error;
 }
 
 }  // namespace

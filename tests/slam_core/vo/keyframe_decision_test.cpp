@@ -86,6 +86,27 @@ TEST(KeyframeDecision, FarFewerPointsThanAtTheLastKeyframeNeedOne) {
   EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
 }
 
+TEST(KeyframeDecision, AFastTurnGetsItsKeyframeAtOnce) {
+  // Seed 2120 agent 2 at 137 deg/s, 20 Hz: two frames after a keyframe the view has turned
+  // 14 deg (a quarter of its field of view) and the tracked ratio asks for a keyframe, but
+  // the minimum spacing (0.2 s = 4 frames) and busy mapping would make it wait.
+  KeyframeDecisionInput in = Steady();
+  in.frames_since_kf = 2;
+  in.seconds_since_kf = 0.1;
+  in.mapper_idle = false;
+  in.inliers = 240;  // 80 % of the reference's: the tracked ratio fires, the urgent one not
+  KeyframeDecisionOptions o;
+  o.turn_fov_share = 0.2;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone) << "no turn yet";
+  in.turn_fov_share = 0.25;
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kTurn);
+  in.inliers = 290;  // turned, but the map still covers the view
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+  in.inliers = 240;
+  o.turn_fov_share = 0;  // off
+  EXPECT_EQ(DecideKeyframe(o, in), KeyframeReason::kNone);
+}
+
 TEST(KeyframeDecision, BusyMappingDefersAllButUrgentKeyframes) {
   const KeyframeDecisionOptions o = AllOn();
   KeyframeDecisionInput in = Steady();

@@ -257,5 +257,31 @@ TEST(VoFastTurn, LowerParallaxForNewPointsTracksThroughA72DegPerSecondTurn) {
   }
 }
 
+TEST(VoFastTurn, AKeyframeAtOnceInAFastTurnKeepsTracking) {
+  // gen:2120 agent 2 (VGA at 20 Hz) yaws at up to 137 deg/s around frame 880. With keyframes
+  // 3-4 frames apart (the 0.2 s spacing, broken only by the urgent ratio) each frame lost a
+  // quarter of its points: lost at frame 894, a second segment 40 frames later. With a
+  // keyframe at once after a fifth of the field of view it tracks through.
+  std::string error;
+  const auto sim = testing::LoadSimulation("gen:2120", &error);
+  ASSERT_NE(sim, nullptr) << error;
+  for (const double share : {0.0, 0.2}) {
+    VoOptions options;
+    options.keyframe.turn_fov_share = share;
+    const SharpTurnOutcome o = FlyThroughSharpTurn(sim, 2, 950, options);
+    ASSERT_TRUE(o.error.empty()) << o.error;
+    std::printf("[fast turn, kf_turn_fov_share %.2f] tracked %lld/%lld, %d segment(s), %lld keyframes, frame ATE %.4f m\n",
+                share, static_cast<long long>(o.tracked), static_cast<long long>(o.frames), o.segments,
+                static_cast<long long>(o.keyframes), o.frame_ate_m);
+    if (share == 0.0) {
+      EXPECT_GE(o.segments, 2);  // the premise: lost in the turn
+    } else {
+      EXPECT_EQ(o.segments, 1);
+      EXPECT_GE(o.tracked, 940);  // the start takes ~10 frames
+      EXPECT_LT(o.frame_ate_m, 0.2);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ccm

@@ -2,10 +2,13 @@
 // tracking degrades: state, pose-optimization inliers, keyframes, segment, and the error of
 // the motion over the last second against ground truth (rotation, and translation direction
 // since monocular scale is unknown). Not a test; a diagnosis tool.
-//   vo_trace --scenario gen:3 --agent 0 [--from 50 --to 120]
+//   vo_trace --scenario gen:3 --agent 0 [--from 50 --to 120] [--set kf_turn_fov_share=0.2]
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Geometry>
@@ -22,6 +25,29 @@ struct Sample {
 
 double AngleDeg(const Eigen::Quaterniond& q) { return Eigen::AngleAxisd(q).angle() * 180.0 / M_PI; }
 
+constexpr const char* kSettableKeys =
+    "min_triangulation_parallax_deg, kf_urgent_ratio, kf_inlier_drop_ratio, kf_min_interval_s, kf_turn_fov_share, "
+    "kf_coverage_ratio, triangulation_neighbours";
+
+// One "key=value" of kSettableKeys into options; an error message or "".
+std::string SetVoOption(const std::string& kv, ccm::VoOptions* o) {
+  const size_t eq = kv.find('=');
+  if (eq == std::string::npos) return "--set needs KEY=VALUE, got '" + kv + "'";
+  const std::string key = kv.substr(0, eq);
+  char* end = nullptr;
+  const double v = std::strtod(kv.c_str() + eq + 1, &end);
+  if (end == kv.c_str() + eq + 1 || *end != '\0') return "--set " + key + ": not a number";
+  if (key == "min_triangulation_parallax_deg") o->min_triangulation_parallax_deg = v;
+  else if (key == "kf_urgent_ratio") o->keyframe.urgent_ratio = v;
+  else if (key == "kf_inlier_drop_ratio") o->keyframe.inlier_drop_ratio = v;
+  else if (key == "kf_min_interval_s") o->keyframe.min_interval_s = v;
+  else if (key == "kf_turn_fov_share") o->keyframe.turn_fov_share = v;
+  else if (key == "kf_coverage_ratio") o->keyframe.coverage_ratio = v;
+  else if (key == "triangulation_neighbours") o->triangulation_neighbours = static_cast<int>(v);
+  else return "--set: unknown key '" + key + "' (known: " + kSettableKeys + ")";
+  return o->Validate();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -35,6 +61,8 @@ int main(int argc, char** argv) {
   app.add_option("--to", to, "last frame to run (-1: all)")->capture_default_str();
   app.add_option("--stride", stride, "every n-th frame (2: 10 Hz of a 20 Hz flight)")->capture_default_str();
   app.add_option("--vocab", vocab_path, "relocalization vocabulary ('none': brute force)")->capture_default_str();
+  std::vector<std::string> overrides;
+  app.add_option("--set", overrides, "VO option KEY=VALUE (repeatable): " + std::string(kSettableKeys));
   CLI11_PARSE(app, argc, argv);
   std::string error;
   const auto sim = ccm::testing::LoadSimulation(scenario, &error);
@@ -54,7 +82,14 @@ int main(int argc, char** argv) {
   ccm::sim::SimFrameSource source(sim, agent, 0, stride, to >= 0 ? to + 1 : -1);
   std::shared_ptr<const ccm::CameraModel> camera(ccm::MakeCamera(source.intrinsics()));
   ccm::AckAll acks;  // standalone, as ccm_agent --standalone
-  ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, ccm::VoOptions{}, &acks, true, vocab);
+  ccm::VoOptions vopt;
+  for (const std::string& kv : overrides) {
+    if (auto e = SetVoOption(kv, &vopt); !e.empty()) {
+      std::fprintf(stderr, "vo_trace: %s\n", e.c_str());
+      return 2;
+    }
+  }
+  ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, vopt, &acks, true, vocab);
   const double rate = sim->scenario().agents.at(agent).rate_hz / static_cast<double>(stride);
   std::deque<Sample> window;  // tracked frames of the last second
   std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg\n");
