@@ -51,9 +51,10 @@ struct KeyframeDecisionOptions {
   /// off). A fast turn sweeps the view past the map faster than min_interval_s lets new
   /// points in: issue 27's seed 2120 agent 2 (VGA, 20 Hz) yawed at 137 deg/s with a
   /// keyframe every 3-4 frames, each frame losing a quarter of its points, and was lost;
-  /// 0.2 holds it. Inert on hall3 and the real sequences, neutral on most agents' VO
-  /// elsewhere (docs/vo.md "A keyframe at once in a fast turn").
-  double turn_fov_share = 0.2;
+  /// 0.2 holds it. Off by default: inert on hall3 and the real sequences, but on 73
+  /// generated agents it lost one as it saved another (docs/vo.md "A keyframe at once in
+  /// a fast turn").
+  double turn_fov_share = 0.0;
 
   std::string Validate() const;
 };

@@ -261,11 +261,11 @@ TEST(VoFastTurn, AKeyframeAtOnceInAFastTurnKeepsTracking) {
   // gen:2120 agent 2 (VGA at 20 Hz) yaws at up to 137 deg/s around frame 880. With keyframes
   // 3-4 frames apart (the 0.2 s spacing, broken only by the urgent ratio) each frame lost a
   // quarter of its points: lost at frame 894, a second segment 40 frames later. With a
-  // keyframe at once after a fifth of the field of view (the default) it tracks through.
+  // keyframe at once after a fifth of the field of view (not the default) it tracks through.
   std::string error;
   const auto sim = testing::LoadSimulation("gen:2120", &error);
   ASSERT_NE(sim, nullptr) << error;
-  for (const double share : {0.0, VoOptions{}.keyframe.turn_fov_share}) {
+  for (const double share : {0.0, 0.2}) {
     VoOptions options;
     options.keyframe.turn_fov_share = share;
     const SharpTurnOutcome o = FlyThroughSharpTurn(sim, 2, 950, options);
