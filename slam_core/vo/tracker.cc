@@ -463,7 +463,7 @@ KeyframeReason Tracker::NeedNewKeyframe(const VoFrame& f, int inliers) const {
   if (reference_coverage_ > 0) in.coverage = ImageCoverage(f);
   in.reference_coverage = reference_coverage_;
   if (reference_median_depth_ > 0) in.baseline_over_depth = BaselineOverDepth(f);
-  if (reference_kf_ && horizontal_fov_rad_ > 0) {
+  if (shared_->options.keyframe.turn_fov_share > 0 && reference_kf_ && horizontal_fov_rad_ > 0) {
     const Eigen::AngleAxisd turn(reference_kf_->world_from_cam().rotation().inverse() * f.world_from_cam.rotation());
     in.turn_fov_share = turn.angle() / horizontal_fov_rad_;
   }
