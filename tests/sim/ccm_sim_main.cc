@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
 
   if (o.list) {
     for (const auto& [name, text] : ccm::sim::BuiltinScenarios()) std::printf("%-10s %s\n", name.c_str(), text.c_str());
-    std::printf("%-10s %s\n", "gen:SEED", "a generated scene (room, hall, yard or corridor, 2-8 agents; docs/simulator.md)");
+    std::printf("%-10s %s\n", "gen:SEED[:N]", "a generated scene (room, hall, yard or corridor, 2-8 agents, or 2-N; docs/simulator.md)");
     return 0;
   }
   if (!o.dump.empty()) {

@@ -195,13 +195,30 @@ GeneratedScene GenerateScene(std::uint64_t seed, const SceneGeneratorOptions& op
 }
 
 std::optional<std::string> GeneratedScenarioYaml(const std::string& name) {
-  if (name.rfind("gen:", 0) != 0 || name.size() <= 4 || name.size() > 24) return std::nullopt;
-  std::uint64_t seed = 0;
+  if (name.rfind("gen:", 0) != 0 || name.size() <= 4 || name.size() > 28) return std::nullopt;
+  // "gen:SEED" or "gen:SEED:MAX_AGENTS": bench_fusion --max-agents 4 draws other scenes than
+  // the default 8, and a diagnosis must fly the scene the benchmark flew.
+  std::uint64_t numbers[2] = {0, 0};
+  int field = 0;
+  size_t digits = 0;
   for (size_t i = 4; i < name.size(); ++i) {
+    if (name[i] == ':' && field == 0 && digits > 0) {
+      field = 1;
+      digits = 0;
+      continue;
+    }
     if (name[i] < '0' || name[i] > '9') return std::nullopt;
-    seed = seed * 10 + static_cast<std::uint64_t>(name[i] - '0');
+    numbers[field] = numbers[field] * 10 + static_cast<std::uint64_t>(name[i] - '0');
+    ++digits;
   }
-  return GenerateScene(seed).yaml;
+  if (digits == 0) return std::nullopt;
+  SceneGeneratorOptions options;
+  if (field == 1) {
+    if (numbers[1] > static_cast<std::uint64_t>(kMaxGeneratedAgents)) return std::nullopt;
+    options.max_agents = static_cast<int>(numbers[1]);
+    if (!options.Validate().empty()) return std::nullopt;
+  }
+  return GenerateScene(numbers[0], options).yaml;
 }
 
 }  // namespace ccm::sim

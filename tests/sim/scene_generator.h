@@ -7,7 +7,8 @@
 // directions 30-60 deg apart, for a brief (2-3 s) or a long time, or they get none.
 // The plan says what was intended; what agents really saw in common is measured from the
 // simulator's ground truth (overlap_truth.h). Same seed + options => the same YAML.
-// Use: GenerateScene(seed).yaml, or the scenario name "gen:SEED" wherever a scenario is read.
+// Use: GenerateScene(seed).yaml, or the scenario name "gen:SEED" (or
+// "gen:SEED:MAX_AGENTS") wherever a scenario is read.
 #pragma once
 
 #include <cstdint>
@@ -61,7 +62,8 @@ struct GeneratedScene {
 
 GeneratedScene GenerateScene(std::uint64_t seed, const SceneGeneratorOptions& options = {});
 
-/// "gen:SEED" (decimal) -> the YAML of GenerateScene(SEED); nullopt for any other name.
+/// "gen:SEED" (decimal) -> the YAML of GenerateScene(SEED); "gen:SEED:MAX_AGENTS" -> the scene
+/// drawn with that max_agents (bench_fusion --max-agents); nullopt for any other name.
 std::optional<std::string> GeneratedScenarioYaml(const std::string& name);
 
 }  // namespace ccm::sim

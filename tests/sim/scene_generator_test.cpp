@@ -34,6 +34,15 @@ TEST(SceneGenerator, SameSeedSameSceneOtherSeedOtherScene) {
   EXPECT_EQ(GeneratedScenarioYaml("gen:17"), GenerateScene(17).yaml);
   EXPECT_FALSE(GeneratedScenarioYaml("gen:"));
   EXPECT_FALSE(GeneratedScenarioYaml("gen:12x"));
+  SceneGeneratorOptions four;
+  four.max_agents = 4;
+  EXPECT_EQ(GeneratedScenarioYaml("gen:13:4"), GenerateScene(13, four).yaml);
+  EXPECT_NE(GeneratedScenarioYaml("gen:13:4"), GenerateScene(13).yaml);  // another draw: another scene
+  EXPECT_FALSE(GeneratedScenarioYaml("gen:13:"));
+  EXPECT_FALSE(GeneratedScenarioYaml("gen::4"));
+  EXPECT_FALSE(GeneratedScenarioYaml("gen:13:1"));   // fewer than min_agents
+  EXPECT_FALSE(GeneratedScenarioYaml("gen:13:17"));  // more than the generator holds
+  EXPECT_FALSE(GeneratedScenarioYaml("gen:13:4:2"));
   EXPECT_FALSE(GeneratedScenarioYaml("hall3"));
   std::string error;
   EXPECT_TRUE(LoadScenario("gen:5", &error)) << error;

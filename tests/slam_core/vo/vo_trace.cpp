@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,7 +56,7 @@ int main(int argc, char** argv) {
   std::string scenario = "hall3", vocab_path = CCM_DEFAULT_VOCABULARY;
   int agent = 0;
   int64_t from = 0, to = -1, stride = 1;
-  app.add_option("--scenario", scenario, "built-in, gen:SEED or YAML")->capture_default_str();
+  app.add_option("--scenario", scenario, "built-in, gen:SEED[:MAX_AGENTS] (bench_fusion --max-agents) or YAML")->capture_default_str();
   app.add_option("--agent", agent, "agent index")->capture_default_str();
   app.add_option("--from", from, "first frame to print")->capture_default_str();
   app.add_option("--to", to, "last frame to run (-1: all)")->capture_default_str();
@@ -92,13 +93,34 @@ int main(int argc, char** argv) {
   ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, vopt, &acks, true, vocab);
   const double rate = sim->scenario().agents.at(agent).rate_hz / static_cast<double>(stride);
   std::deque<Sample> window;  // tracked frames of the last second
-  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg\n");
+  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg | step rot err deg  map turn deg  step yaw: true, error\n");
   int64_t index = 0;
+  // The newest keyframe before this frame and its pose then: how far the mapping step that
+  // ran since (a local BA after a keyframe) turned it, i.e. the map under the tracker.
+  std::optional<ccm::KeyframePose> watched;
   while (auto frame = source.Next()) {
     const ccm::TrackingResult r = vo.TrackFrame(*frame);
+    double kf_turn = -1;
+    const auto kfs = vo.KeyframeTrajectory();
+    if (watched) {
+      for (const ccm::KeyframePose& k : kfs) {
+        if (k.id == watched->id) kf_turn = AngleDeg(watched->world_from_cam.rotation().conjugate() * k.world_from_cam.rotation());
+      }
+    }
+    watched.reset();
+    for (const ccm::KeyframePose& k : kfs) {
+      if (k.id.agent() == static_cast<ccm::AgentId>(agent + 1) && (!watched || k.stamp_ns > watched->stamp_ns)) watched = k;
+    }
     const ccm::SE3 gt = *frame->world_from_cam_gt;
-    double rot_err = -1, dir_err = -1;
+    double rot_err = -1, dir_err = -1, step_err = -1, step_yaw = 0, step_gt_yaw = 0;
     if (r.world_from_cam) {
+      if (!window.empty() && window.back().index == index - 1) {  // this frame's own rotation error
+        const ccm::SE3 d_gt = window.back().gt.inverse() * gt, d_est = window.back().est.inverse() * *r.world_from_cam;
+        step_err = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
+        const Eigen::AngleAxisd e(d_gt.rotation().conjugate() * d_est.rotation()), g(d_gt.rotation());
+        step_yaw = e.angle() * e.axis().y() * 180.0 / M_PI;  // camera y: the yaw of a level camera
+        step_gt_yaw = g.angle() * g.axis().y() * 180.0 / M_PI;
+      }
       window.push_back({index, gt, *r.world_from_cam});
       while (!window.empty() && window.front().index < index - static_cast<int64_t>(rate)) window.pop_front();
       const Sample& old = window.front();
@@ -119,9 +141,9 @@ int main(int argc, char** argv) {
     const ccm::SE3 a = traj.WorldFromCam(std::max(0.0, t - 0.05)), b = traj.WorldFromCam(t + 0.05);
     const double yaw_rate = AngleDeg(a.rotation().conjugate() * b.rotation()) / 0.1;
     if (index >= from) {
-      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f\n", static_cast<long long>(index), t,
+      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f\n", static_cast<long long>(index), t,
                   ccm::TrackingStateName(r.state), r.inliers, r.new_keyframe ? "KF" : "", 
-                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err);
+                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err, step_err, kf_turn, step_gt_yaw, step_yaw);
     }
     ++index;
   }
