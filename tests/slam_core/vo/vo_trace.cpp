@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
   ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, vopt, &acks, true, vocab);
   const double rate = sim->scenario().agents.at(agent).rate_hz / static_cast<double>(stride);
   std::deque<Sample> window;  // tracked frames of the last second
-  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg | step rot err deg  map turn deg  step yaw: true, error\n");
+  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg | step rot err deg  map turn deg  step yaw: true, error  sideways step error m\n");
   int64_t index = 0;
   // The newest keyframe before this frame and its pose then: how far the mapping step that
   // ran since (a local BA after a keyframe) turned it, i.e. the map under the tracker.
@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
       if (k.id.agent() == static_cast<ccm::AgentId>(agent + 1) && (!watched || k.stamp_ns > watched->stamp_ns)) watched = k;
     }
     const ccm::SE3 gt = *frame->world_from_cam_gt;
-    double rot_err = -1, dir_err = -1, step_err = -1, step_yaw = 0, step_gt_yaw = 0;
+    double rot_err = -1, dir_err = -1, step_err = -1, step_yaw = 0, step_gt_yaw = 0, step_dx = 0;
+    std::optional<ccm::SE3> step_gt, step_est;
     if (r.world_from_cam) {
       if (!window.empty() && window.back().index == index - 1) {  // this frame's own rotation error
         const ccm::SE3 d_gt = window.back().gt.inverse() * gt, d_est = window.back().est.inverse() * *r.world_from_cam;
@@ -120,6 +121,8 @@ int main(int argc, char** argv) {
         const Eigen::AngleAxisd e(d_gt.rotation().conjugate() * d_est.rotation()), g(d_gt.rotation());
         step_yaw = e.angle() * e.axis().y() * 180.0 / M_PI;  // camera y: the yaw of a level camera
         step_gt_yaw = g.angle() * g.axis().y() * 180.0 / M_PI;
+        step_gt = d_gt;
+        step_est = d_est;
       }
       window.push_back({index, gt, *r.world_from_cam});
       while (!window.empty() && window.front().index < index - static_cast<int64_t>(rate)) window.pop_front();
@@ -127,6 +130,12 @@ int main(int argc, char** argv) {
       if (old.index < index) {
         const ccm::SE3 d_gt = old.gt.inverse() * gt, d_est = old.est.inverse() * *r.world_from_cam;
         rot_err = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
+        // The frame's sideways step error [m of the ground truth], the map's scale taken
+        // from the last second: a yaw traded for a sideways step shows as step_dx ~ yaw * depth.
+        if (step_gt && d_est.translation().norm() > 1e-9) {
+          const double scale = d_gt.translation().norm() / d_est.translation().norm();
+          step_dx = (scale * step_est->translation() - step_gt->translation()).x();
+        }
         if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
           dir_err = std::acos(std::clamp(d_gt.translation().normalized().dot(d_est.translation().normalized()), -1.0, 1.0)) *
                     180.0 / M_PI;
@@ -141,9 +150,9 @@ int main(int argc, char** argv) {
     const ccm::SE3 a = traj.WorldFromCam(std::max(0.0, t - 0.05)), b = traj.WorldFromCam(t + 0.05);
     const double yaw_rate = AngleDeg(a.rotation().conjugate() * b.rotation()) / 0.1;
     if (index >= from) {
-      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f\n", static_cast<long long>(index), t,
+      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f %7.3f\n", static_cast<long long>(index), t,
                   ccm::TrackingStateName(r.state), r.inliers, r.new_keyframe ? "KF" : "", 
-                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err, step_err, kf_turn, step_gt_yaw, step_yaw);
+                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err, step_err, kf_turn, step_gt_yaw, step_yaw, step_dx);
     }
     ++index;
   }
