@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
   ccm::AgentVo vo(static_cast<ccm::AgentId>(agent + 1), camera, vopt, &acks, true, vocab);
   const double rate = sim->scenario().agents.at(agent).rate_hz / static_cast<double>(stride);
   std::deque<Sample> window;  // tracked frames of the last second
-  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg | step rot err deg  map turn deg  step yaw: true, error  sideways step error m\n");
+  std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg | step rot err deg  map turn deg  step yaw: true, error  sideways step error m  1 s scale m/unit\n");
   int64_t index = 0;
   // The newest keyframe before this frame and its pose then: how far the mapping step that
   // ran since (a local BA after a keyframe) turned it, i.e. the map under the tracker.
@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
       if (k.id.agent() == static_cast<ccm::AgentId>(agent + 1) && (!watched || k.stamp_ns > watched->stamp_ns)) watched = k;
     }
     const ccm::SE3 gt = *frame->world_from_cam_gt;
-    double rot_err = -1, dir_err = -1, step_err = -1, step_yaw = 0, step_gt_yaw = 0, step_dx = 0;
+    double rot_err = -1, dir_err = -1, step_err = -1, step_yaw = 0, step_gt_yaw = 0, step_dx = 0, scale = 0;
     std::optional<ccm::SE3> step_gt, step_est;
     if (r.world_from_cam) {
       if (!window.empty() && window.back().index == index - 1) {  // this frame's own rotation error
@@ -132,8 +132,10 @@ int main(int argc, char** argv) {
         rot_err = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
         // The frame's sideways step error [m of the ground truth], the map's scale taken
         // from the last second: a yaw traded for a sideways step shows as step_dx ~ yaw * depth.
-        if (step_gt && d_est.translation().norm() > 1e-9) {
-          const double scale = d_gt.translation().norm() / d_est.translation().norm();
+        if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
+          scale = d_gt.translation().norm() / d_est.translation().norm();  // m per map unit; drift shows as change
+        }
+        if (step_gt && scale > 0) {
           step_dx = (scale * step_est->translation() - step_gt->translation()).x();
         }
         if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
@@ -150,9 +152,9 @@ int main(int argc, char** argv) {
     const ccm::SE3 a = traj.WorldFromCam(std::max(0.0, t - 0.05)), b = traj.WorldFromCam(t + 0.05);
     const double yaw_rate = AngleDeg(a.rotation().conjugate() * b.rotation()) / 0.1;
     if (index >= from) {
-      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f %7.3f\n", static_cast<long long>(index), t,
+      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f %7.3f %8.3f\n", static_cast<long long>(index), t,
                   ccm::TrackingStateName(r.state), r.inliers, r.new_keyframe ? "KF" : "", 
-                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err, step_err, kf_turn, step_gt_yaw, step_yaw, step_dx);
+                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err, step_err, kf_turn, step_gt_yaw, step_yaw, step_dx, scale);
     }
     ++index;
   }
