@@ -1,8 +1,11 @@
 // vo_trace: one simulated agent through the VO, one line per frame, to find where and why
-// tracking degrades: state, pose-optimization inliers, keyframes, segment, and the error of
-// the motion over the last second against ground truth (rotation, and translation direction
-// since monocular scale is unknown). Not a test; a diagnosis tool.
+// tracking degrades: state, pose-optimization inliers, keyframes, segment, the error of the
+// motion over the last second against ground truth (rotation, and translation direction
+// since monocular scale is unknown), each frame's own rotation error (total and yaw) and
+// sideways step error, how far the mapping step turned the newest keyframe, and the map's
+// scale over the last second (docs/vo.md "Seed 13's agent 1"). Not a test; a diagnosis tool.
 //   vo_trace --scenario gen:3 --agent 0 [--from 50 --to 120] [--set kf_turn_fov_share=0.2]
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -25,6 +28,44 @@ struct Sample {
 };
 
 double AngleDeg(const Eigen::Quaterniond& q) { return Eigen::AngleAxisd(q).angle() * 180.0 / M_PI; }
+
+// A tracked frame's errors against ground truth; -1 (0 for the signed ones) where unknown.
+struct FrameErrors {
+  double rot_1s = -1, dir_1s = -1;        // motion over the last second [deg]
+  double step = -1, step_yaw = 0;         // this frame against the one before [deg]
+  double step_gt_yaw = 0;                 // the true yaw of that step [deg]
+  double step_sideways_m = 0;             // its sideways error [m of the ground truth]
+  double scale = 0;                       // ground-truth m per map unit over the last second
+};
+
+// `window` holds the tracked frames of the last second, this one last.
+FrameErrors MeasureFrame(const std::deque<Sample>& window) {
+  FrameErrors e;
+  const Sample& now = window.back();
+  std::optional<ccm::SE3> step_gt, step_est;
+  if (window.size() >= 2 && window[window.size() - 2].index == now.index - 1) {
+    const Sample& prev = window[window.size() - 2];
+    step_gt = prev.gt.inverse() * now.gt;
+    step_est = prev.est.inverse() * now.est;
+    const Eigen::Quaterniond err = step_gt->rotation().conjugate() * step_est->rotation();
+    e.step = AngleDeg(err);
+    const Eigen::AngleAxisd ea(err), ga(step_gt->rotation());
+    e.step_yaw = ea.angle() * ea.axis().y() * 180.0 / M_PI;  // camera y: the yaw of a level camera
+    e.step_gt_yaw = ga.angle() * ga.axis().y() * 180.0 / M_PI;
+  }
+  const Sample& old = window.front();
+  if (old.index == now.index) return e;
+  const ccm::SE3 d_gt = old.gt.inverse() * now.gt, d_est = old.est.inverse() * now.est;
+  e.rot_1s = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
+  if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
+    e.dir_1s = std::acos(std::clamp(d_gt.translation().normalized().dot(d_est.translation().normalized()), -1.0, 1.0)) *
+               180.0 / M_PI;
+    e.scale = d_gt.translation().norm() / d_est.translation().norm();
+    // A yaw traded for a sideways step shows as step_sideways_m ~ -step_yaw * depth.
+    if (step_gt) e.step_sideways_m = (e.scale * step_est->translation() - step_gt->translation()).x();
+  }
+  return e;
+}
 
 constexpr const char* kSettableKeys =
     "min_triangulation_parallax_deg, kf_urgent_ratio, kf_inlier_drop_ratio, kf_min_interval_s, kf_turn_fov_share, "
@@ -111,38 +152,11 @@ int main(int argc, char** argv) {
     for (const ccm::KeyframePose& k : kfs) {
       if (k.id.agent() == static_cast<ccm::AgentId>(agent + 1) && (!watched || k.stamp_ns > watched->stamp_ns)) watched = k;
     }
-    const ccm::SE3 gt = *frame->world_from_cam_gt;
-    double rot_err = -1, dir_err = -1, step_err = -1, step_yaw = 0, step_gt_yaw = 0, step_dx = 0, scale = 0;
-    std::optional<ccm::SE3> step_gt, step_est;
+    FrameErrors e;
     if (r.world_from_cam) {
-      if (!window.empty() && window.back().index == index - 1) {  // this frame's own rotation error
-        const ccm::SE3 d_gt = window.back().gt.inverse() * gt, d_est = window.back().est.inverse() * *r.world_from_cam;
-        step_err = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
-        const Eigen::AngleAxisd e(d_gt.rotation().conjugate() * d_est.rotation()), g(d_gt.rotation());
-        step_yaw = e.angle() * e.axis().y() * 180.0 / M_PI;  // camera y: the yaw of a level camera
-        step_gt_yaw = g.angle() * g.axis().y() * 180.0 / M_PI;
-        step_gt = d_gt;
-        step_est = d_est;
-      }
-      window.push_back({index, gt, *r.world_from_cam});
-      while (!window.empty() && window.front().index < index - static_cast<int64_t>(rate)) window.pop_front();
-      const Sample& old = window.front();
-      if (old.index < index) {
-        const ccm::SE3 d_gt = old.gt.inverse() * gt, d_est = old.est.inverse() * *r.world_from_cam;
-        rot_err = AngleDeg(d_gt.rotation().conjugate() * d_est.rotation());
-        // The frame's sideways step error [m of the ground truth], the map's scale taken
-        // from the last second: a yaw traded for a sideways step shows as step_dx ~ yaw * depth.
-        if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
-          scale = d_gt.translation().norm() / d_est.translation().norm();  // m per map unit; drift shows as change
-        }
-        if (step_gt && scale > 0) {
-          step_dx = (scale * step_est->translation() - step_gt->translation()).x();
-        }
-        if (d_gt.translation().norm() > 0.05 && d_est.translation().norm() > 1e-9) {
-          dir_err = std::acos(std::clamp(d_gt.translation().normalized().dot(d_est.translation().normalized()), -1.0, 1.0)) *
-                    180.0 / M_PI;
-        }
-      }
+      window.push_back({index, *frame->world_from_cam_gt, *r.world_from_cam});
+      while (window.front().index < index - static_cast<int64_t>(rate)) window.pop_front();
+      e = MeasureFrame(window);
     } else {
       window.clear();
     }
@@ -152,9 +166,11 @@ int main(int argc, char** argv) {
     const ccm::SE3 a = traj.WorldFromCam(std::max(0.0, t - 0.05)), b = traj.WorldFromCam(t + 0.05);
     const double yaw_rate = AngleDeg(a.rotation().conjugate() * b.rotation()) / 0.1;
     if (index >= from) {
-      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f %7.3f %8.3f\n", static_cast<long long>(index), t,
-                  ccm::TrackingStateName(r.state), r.inliers, r.new_keyframe ? "KF" : "", 
-                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, rot_err, dir_err, step_err, kf_turn, step_gt_yaw, step_yaw, step_dx, scale);
+      std::printf("%5lld %6.2f %-12s %4d %2s %3llu %6.2f %8.1f | %8.2f %12.2f | %6.2f %6.2f %6.2f %6.2f %7.3f %8.3f\n",
+                  static_cast<long long>(index), t,
+                  ccm::TrackingStateName(r.state), r.inliers, r.new_keyframe ? "KF" : "",
+                  static_cast<unsigned long long>(r.segment.counter()), speed, yaw_rate, e.rot_1s, e.dir_1s, e.step, kf_turn,
+                  e.step_gt_yaw, e.step_yaw, e.step_sideways_m, e.scale);
     }
     ++index;
   }
