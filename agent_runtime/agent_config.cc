@@ -85,6 +85,7 @@ bool ReadVoOptions(const YAML::Node& node, const std::string& context, VoOptions
   r.Get("triangulation_neighbours", &vo->triangulation_neighbours);
   r.Get("triangulate_widest_baseline_first", &vo->triangulate_widest_baseline_first);
   r.Get("min_triangulation_parallax_deg", &vo->min_triangulation_parallax_deg);
+  r.Get("min_baseline_depth_ratio", &vo->min_baseline_depth_ratio);
   r.Get("local_ba_max_fixed", &vo->local_ba_max_fixed);
   r.Get("triangulation_parallax_sigmas", &vo->triangulation_parallax_sigmas);
   r.Get("lost_frames_before_new_segment", &vo->lost_frames_before_new_segment);

@@ -28,6 +28,7 @@ std::string VoOptions::Validate() const {
   if (auto e = keyframe.Validate(); !e.empty()) return e;
   if (local_ba_window < 2) return "local_ba_window must be >= 2";
   if (local_ba_max_fixed < 1) return "local_ba_max_fixed must be >= 1";
+  if (!(min_baseline_depth_ratio >= 0.0 && min_baseline_depth_ratio < 1.0)) return "min_baseline_depth_ratio must be in [0, 1)";
   if (!(min_triangulation_parallax_deg > 0.0 && min_triangulation_parallax_deg < 90.0)) {
     return "min_triangulation_parallax_deg must be in (0, 90)";
   }

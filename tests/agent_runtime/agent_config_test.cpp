@@ -72,6 +72,7 @@ TEST(AgentConfig, VoSectionSetsOptionsAndIsStrict) {
   // The triangulation keys (docs/vo.md, "Where the VO's scale goes wrong").
   AgentConfig t;
   ASSERT_TRUE(LoadAgentConfig(Write("t.yaml", "vo:\n  triangulation_parallax_sigmas: 10\n  min_triangulation_parallax_deg: 1.5\n"
+                                              "  min_baseline_depth_ratio: 0.02\n"
                                               "  local_ba_max_fixed: 20\n  init_min_rotation_residual_deg: 1\n"
                                               "  init_min_motion_cost_gap: 0\n  init_max_ambiguous_attempts: 5\n"),
                               &t, &error))
@@ -82,12 +83,15 @@ TEST(AgentConfig, VoSectionSetsOptionsAndIsStrict) {
   EXPECT_GT(VoOptions{}.init_min_motion_cost_gap, 0.0) << "the rival-motion check is on by default";
   EXPECT_DOUBLE_EQ(t.vo.triangulation_parallax_sigmas, 10.0);
   EXPECT_DOUBLE_EQ(t.vo.min_triangulation_parallax_deg, 1.5);
+  EXPECT_DOUBLE_EQ(t.vo.min_baseline_depth_ratio, 0.02);
   EXPECT_EQ(t.vo.local_ba_max_fixed, 20);
   AgentConfig u;
   EXPECT_FALSE(LoadAgentConfig(Write("u.yaml", "vo:\n  triangulation_parallax_sigmas: -1\n"), &u, &error));
   EXPECT_NE(error.find("triangulation_parallax_sigmas"), std::string::npos) << error;
   EXPECT_FALSE(LoadAgentConfig(Write("v.yaml", "vo:\n  min_triangulation_parallax_deg: 0\n"), &u, &error));
   EXPECT_NE(error.find("min_triangulation_parallax_deg"), std::string::npos) << error;
+  EXPECT_FALSE(LoadAgentConfig(Write("w.yaml", "vo:\n  min_baseline_depth_ratio: 1.5\n"), &u, &error));
+  EXPECT_NE(error.find("min_baseline_depth_ratio"), std::string::npos) << error;
 }
 
 // The onboard template the ccm-agent package installs: one file per robot with its camera,

@@ -226,6 +226,10 @@ int main(int argc, char** argv) {
                  "VO keyframe rule: a keyframe at once after turning this share of the field of view (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--min-baseline-depth", replay.vo.min_baseline_depth_ratio,
+                 "VO: keyframe pairs new points come from need this baseline over the neighbour's median depth")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.99));
   app.add_option("--min-parallax", replay.vo.min_triangulation_parallax_deg, "VO: ray angle new points need [deg]")
       ->capture_default_str()
       ->check(CLI::Range(0.01, 10.0));

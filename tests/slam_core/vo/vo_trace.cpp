@@ -69,7 +69,7 @@ FrameErrors MeasureFrame(const std::deque<Sample>& window) {
 
 constexpr const char* kSettableKeys =
     "min_triangulation_parallax_deg, kf_urgent_ratio, kf_inlier_drop_ratio, kf_min_interval_s, kf_turn_fov_share, "
-    "kf_coverage_ratio, triangulation_neighbours";
+    "kf_coverage_ratio, triangulation_neighbours, min_baseline_depth_ratio";
 
 // One "key=value" of kSettableKeys into options; an error message or "".
 std::string SetVoOption(const std::string& kv, ccm::VoOptions* o) {
@@ -85,6 +85,7 @@ std::string SetVoOption(const std::string& kv, ccm::VoOptions* o) {
   else if (key == "kf_min_interval_s") o->keyframe.min_interval_s = v;
   else if (key == "kf_turn_fov_share") o->keyframe.turn_fov_share = v;
   else if (key == "kf_coverage_ratio") o->keyframe.coverage_ratio = v;
+  else if (key == "min_baseline_depth_ratio") o->min_baseline_depth_ratio = v;
   else if (key == "triangulation_neighbours") o->triangulation_neighbours = static_cast<int>(v);
   else return "--set: unknown key '" + key + "' (known: " + kSettableKeys + ")";
   return o->Validate();
