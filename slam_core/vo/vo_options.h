@@ -131,7 +131,11 @@ struct VoOptions {
   int local_ba_window = 15;
   int local_ba_max_fixed = 30;         ///< cap on fixed periphery keyframes
   double redundant_kf_ratio = 0.9;     ///< KF culled when this share of its points is seen 3x
-  double min_baseline_depth_ratio = 0.01;  ///< skip triangulation pairs below this baseline
+  /// Keyframe pairs below this baseline over the neighbour's median depth yield no new points
+  /// (ORB-SLAM's test). 0.02 with min_triangulation_parallax_deg 0.3 decides parallax per pair
+  /// instead of per ray: it held four agents lost in fast turns but lost three tuning agents
+  /// (docs/vo.md "Parallax per pair"), so the defaults stay.
+  double min_baseline_depth_ratio = 0.01;
   /// New points need at least this ray angle. Near the threshold, noisy rays that happen
   /// to look more parallel are rejected and more convergent ones kept, which biases those
   /// depths short (seen at 1.15 deg on the simulator). ORB-SLAM's 1.15 lost an agent in a
