@@ -195,30 +195,28 @@ GeneratedScene GenerateScene(std::uint64_t seed, const SceneGeneratorOptions& op
 }
 
 std::optional<std::string> GeneratedScenarioYaml(const std::string& name) {
-  if (name.rfind("gen:", 0) != 0 || name.size() <= 4 || name.size() > 28) return std::nullopt;
   // "gen:SEED" or "gen:SEED:MAX_AGENTS": bench_fusion --max-agents 4 draws other scenes than
   // the default 8, and a diagnosis must fly the scene the benchmark flew.
-  std::uint64_t numbers[2] = {0, 0};
-  int field = 0;
-  size_t digits = 0;
-  for (size_t i = 4; i < name.size(); ++i) {
-    if (name[i] == ':' && field == 0 && digits > 0) {
-      field = 1;
-      digits = 0;
-      continue;
-    }
-    if (name[i] < '0' || name[i] > '9') return std::nullopt;
-    numbers[field] = numbers[field] * 10 + static_cast<std::uint64_t>(name[i] - '0');
-    ++digits;
-  }
-  if (digits == 0) return std::nullopt;
+  if (name.rfind("gen:", 0) != 0) return std::nullopt;
+  const auto decimal = [](const std::string& text, std::uint64_t* value) {
+    // At most 19 digits: every such number fits in 64 bits (stoull would throw beyond).
+    if (text.empty() || text.size() > 19 || text.find_first_not_of("0123456789") != std::string::npos) return false;
+    *value = std::stoull(text);
+    return true;
+  };
+  const std::string rest = name.substr(4);
+  const size_t colon = rest.find(':');
+  std::uint64_t seed = 0, max_agents = 0;
+  if (!decimal(rest.substr(0, colon), &seed)) return std::nullopt;
   SceneGeneratorOptions options;
-  if (field == 1) {
-    if (numbers[1] > static_cast<std::uint64_t>(kMaxGeneratedAgents)) return std::nullopt;
-    options.max_agents = static_cast<int>(numbers[1]);
+  if (colon != std::string::npos) {
+    if (!decimal(rest.substr(colon + 1), &max_agents) || max_agents > static_cast<std::uint64_t>(kMaxGeneratedAgents)) {
+      return std::nullopt;
+    }
+    options.max_agents = static_cast<int>(max_agents);
     if (!options.Validate().empty()) return std::nullopt;
   }
-  return GenerateScene(numbers[0], options).yaml;
+  return GenerateScene(seed, options).yaml;
 }
 
 }  // namespace ccm::sim

@@ -137,22 +137,19 @@ int main(int argc, char** argv) {
   std::deque<Sample> window;  // tracked frames of the last second
   std::printf("frame    t_s state        inl kf seg  speed  yawrate | 1 s motion: rot err deg  dir err deg | step rot err deg  map turn deg  step yaw: true, error  sideways step error m  1 s scale m/unit\n");
   int64_t index = 0;
-  // The newest keyframe before this frame and its pose then: how far the mapping step that
+  // The newest own keyframe and its pose as of the last frame: how far the mapping step that
   // ran since (a local BA after a keyframe) turned it, i.e. the map under the tracker.
   std::optional<ccm::KeyframePose> watched;
   while (auto frame = source.Next()) {
     const ccm::TrackingResult r = vo.TrackFrame(*frame);
+    // The newest own keyframe before this frame: how far the mapping step since turned it.
     double kf_turn = -1;
-    const auto kfs = vo.KeyframeTrajectory();
-    if (watched) {
-      for (const ccm::KeyframePose& k : kfs) {
-        if (k.id == watched->id) kf_turn = AngleDeg(watched->world_from_cam.rotation().conjugate() * k.world_from_cam.rotation());
-      }
+    std::optional<ccm::KeyframePose> newest;
+    for (const ccm::KeyframePose& k : vo.KeyframeTrajectory()) {
+      if (watched && k.id == watched->id) kf_turn = AngleDeg(watched->world_from_cam.rotation().conjugate() * k.world_from_cam.rotation());
+      if (k.id.agent() == static_cast<ccm::AgentId>(agent + 1) && (!newest || k.stamp_ns > newest->stamp_ns)) newest = k;
     }
-    watched.reset();
-    for (const ccm::KeyframePose& k : kfs) {
-      if (k.id.agent() == static_cast<ccm::AgentId>(agent + 1) && (!watched || k.stamp_ns > watched->stamp_ns)) watched = k;
-    }
+    watched = newest;
     FrameErrors e;
     if (r.world_from_cam) {
       window.push_back({index, *frame->world_from_cam_gt, *r.world_from_cam});
